@@ -1,0 +1,25 @@
+VENV ?= .venv
+PY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+
+.PHONY: test demo lint bench clean
+
+$(STAMP): pyproject.toml
+	python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(PY) -m ruff check wiswarm_zenoh apps tests benchmarks
+	$(PY) -m mypy --strict wiswarm_zenoh
+	$(PY) -m pytest
+
+demo: $(STAMP)
+	$(VENV)/bin/wiswarm demo
+
+bench: $(STAMP)
+	$(PY) benchmarks/bench_policies.py
+
+clean:
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

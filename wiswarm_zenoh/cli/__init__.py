@@ -1,0 +1,1 @@
+"""The ``wiswarm`` command line: one module per group of subcommands."""
