@@ -16,7 +16,7 @@ test: $(STAMP)
 	$(PY) -m pytest
 
 demo: $(STAMP)
-	$(VENV)/bin/wiswarm demo
+	$(PY) -m wiswarm_zenoh.memlink
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_policies.py

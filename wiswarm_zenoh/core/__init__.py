@@ -1,0 +1,34 @@
+"""The sans-I/O core: every protocol decision, with time passed in as ``now``.
+
+Nothing here reads a clock, opens a socket or starts a thread, so the same objects run
+over Zenoh in real time and inside the simulator in virtual time.
+"""
+
+from wiswarm_zenoh.core.aoi import AoITracker
+from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.core.errors import WireError
+from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
+from wiswarm_zenoh.core.follower import Follower
+from wiswarm_zenoh.core.leader import FollowerStats, Leader, PollRequest
+from wiswarm_zenoh.core.policies import POLICIES, Policy, make_policy
+from wiswarm_zenoh.core.wire import Waypoint
+
+__all__ = [
+    "POLICIES",
+    "AoITracker",
+    "Delivered",
+    "Event",
+    "Follower",
+    "FollowerConfig",
+    "FollowerStats",
+    "Leader",
+    "LeaderConfig",
+    "Policy",
+    "PollRequest",
+    "Rejected",
+    "Stale",
+    "TimedOut",
+    "Waypoint",
+    "WireError",
+    "make_policy",
+]

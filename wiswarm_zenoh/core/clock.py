@@ -1,0 +1,42 @@
+"""Clock offset of a follower from the four time-stamps of every poll (as NTP does)."""
+
+from __future__ import annotations
+
+from collections import deque
+
+
+class ClockOffsetEstimator:
+    """Estimates ``follower_clock - leader_clock``.
+
+    Each poll gives t1 (leader send), t2 (follower receive), t3 (follower send) and
+    t4 (leader receive): offset = ((t2 - t1) + (t3 - t4)) / 2 with error at most half the
+    round-trip delay (t4 - t1) - (t3 - t2). Of the last ``samples`` samples the one with
+    the smallest delay is used: queueing inflates delay and skews offset together.
+    """
+
+    def __init__(self, samples: int = 8) -> None:
+        if samples < 1:
+            raise ValueError(f"samples must be >= 1, got {samples}")
+        self._recent: deque[tuple[float, float]] = deque(maxlen=samples)
+
+    def add(self, t1: float, t2: float, t3: float, t4: float) -> None:
+        delay = (t4 - t1) - (t3 - t2)
+        if delay < 0 or t3 < t2 or t4 < t1:
+            return  # inconsistent stamps (a clock stepped): no information
+        self._recent.append((delay, ((t2 - t1) + (t3 - t4)) / 2.0))
+
+    def reset(self) -> None:
+        self._recent.clear()
+
+    @property
+    def offset(self) -> float:
+        if not self._recent:
+            return 0.0
+        return min(self._recent)[1]
+
+    @property
+    def delay(self) -> float | None:
+        return min(self._recent)[0] if self._recent else None
+
+    def to_leader(self, follower_time: float) -> float:
+        return follower_time - self.offset

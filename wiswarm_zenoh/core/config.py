@@ -1,0 +1,105 @@
+"""Validated settings of the follower and the leader."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+QueueKind = Literal["lifo", "fifo"]
+DropRule = Literal["tail", "head"]
+
+# Bytes of a fragment that are not payload (msgpack map of the reply); a fragment size
+# at or below this could never carry data.
+FRAGMENT_HEADER_BYTES = 256
+DEFAULT_MAX_UPDATE_BYTES = 16 * 1024 * 1024
+DEFAULT_MAX_FRAGMENTS = 4096
+
+
+def _require(ok: bool, field: str, allowed: str, value: object) -> None:
+    if not ok:
+        raise ValueError(f"{field} must be {allowed}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class FollowerConfig:
+    """How a follower queues and fragments its updates (paper, Section II-B).
+
+    ``abandon_after``: a half-sent update is dropped for a fresher waiting one when none
+    of its fragments has been acknowledged yet, or when the waiting one is newer by more
+    than this many seconds.
+    """
+
+    queue: QueueKind = "lifo"
+    capacity: int = 1
+    drop: DropRule = "tail"
+    rate_hz: float | None = None
+    fragment_size: int = 65536
+    max_update_bytes: int = DEFAULT_MAX_UPDATE_BYTES
+    abandon_after: float = 1.0
+
+    def __post_init__(self) -> None:
+        _require(self.queue in ("lifo", "fifo"), "queue", "'lifo' or 'fifo'", self.queue)
+        _require(self.capacity >= 1, "capacity", "an integer >= 1", self.capacity)
+        _require(self.drop in ("tail", "head"), "drop", "'tail' or 'head'", self.drop)
+        _require(
+            self.rate_hz is None or (math.isfinite(self.rate_hz) and self.rate_hz > 0),
+            "rate_hz", "None or a finite number > 0", self.rate_hz,
+        )
+        _require(
+            self.fragment_size > FRAGMENT_HEADER_BYTES,
+            "fragment_size", f"> {FRAGMENT_HEADER_BYTES} bytes (the fragment header)",
+            self.fragment_size,
+        )
+        _require(self.max_update_bytes >= 1, "max_update_bytes", ">= 1", self.max_update_bytes)
+        _require(
+            self.abandon_after >= 0 and not math.isnan(self.abandon_after),
+            "abandon_after", ">= 0 seconds", self.abandon_after,
+        )
+
+
+@dataclass(frozen=True)
+class LeaderConfig:
+    """How the leader schedules polls and estimates its followers (paper, Section II-D).
+
+    ``prior_p`` stands in for the polls not yet made while fewer than ``window`` polls
+    were sent to a follower; ``p_floor`` keeps a silent follower's index above zero so
+    it is still probed now and then and can recover; ``weight_floor`` does the same for
+    a follower whose urgency fell to zero (a stopped car must still be seen to start).
+    """
+
+    policy: str = "whittle"
+    timeout: float = 0.3
+    window: int = 20
+    prior_p: float = 1.0
+    p_floor: float = 0.05
+    alpha: float = 0.8
+    initial_weight: float = 1.0
+    weight_floor: float = 0.1
+    max_fragments: int = DEFAULT_MAX_FRAGMENTS
+    max_update_bytes: int = DEFAULT_MAX_UPDATE_BYTES
+    clock_samples: int = 8
+
+    def __post_init__(self) -> None:
+        from wiswarm_zenoh.core.policies import POLICIES
+
+        _require(self.policy in POLICIES, "policy", f"one of {sorted(POLICIES)}", self.policy)
+        _require(
+            math.isfinite(self.timeout) and self.timeout > 0, "timeout", "> 0 seconds",
+            self.timeout,
+        )
+        _require(self.window >= 1, "window", "an integer >= 1", self.window)
+        _require(0.0 <= self.prior_p <= 1.0, "prior_p", "in [0, 1]", self.prior_p)
+        _require(0.0 < self.p_floor <= 1.0, "p_floor", "in (0, 1]", self.p_floor)
+        _require(0.0 <= self.alpha <= 1.0, "alpha", "in [0, 1]", self.alpha)
+        _require(
+            math.isfinite(self.initial_weight) and self.initial_weight > 0,
+            "initial_weight", "a finite number > 0", self.initial_weight,
+        )
+        _require(
+            math.isfinite(self.weight_floor) and self.weight_floor >= 0,
+            "weight_floor", "a finite number >= 0", self.weight_floor,
+        )
+        _require(self.max_fragments >= 1, "max_fragments", ">= 1", self.max_fragments)
+        _require(self.max_update_bytes >= 1, "max_update_bytes", ">= 1", self.max_update_bytes)
+        _require(self.clock_samples >= 1, "clock_samples", ">= 1", self.clock_samples)

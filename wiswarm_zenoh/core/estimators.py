@@ -1,0 +1,51 @@
+"""Per-follower estimates the scheduler needs: link reliability and application weight."""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+
+class ReliabilityEstimator:
+    """``p_hat`` = answered share of the last ``window`` polls (paper: D_i(t) / W).
+
+    Until ``window`` polls were made, the missing ones count as ``prior`` each, so a new
+    follower is neither starved (prior 1) nor trusted on one lucky answer.
+    """
+
+    def __init__(self, window: int, prior: float = 1.0) -> None:
+        if window < 1:
+            raise ValueError(f"window must be an integer >= 1, got {window}")
+        if not 0.0 <= prior <= 1.0:
+            raise ValueError(f"prior must be in [0, 1], got {prior}")
+        self.window = window
+        self.prior = prior
+        self._outcomes: deque[bool] = deque(maxlen=window)
+        self._answered = 0
+
+    def record(self, answered: bool) -> None:
+        if len(self._outcomes) == self.window and self._outcomes[0]:
+            self._answered -= 1
+        self._outcomes.append(answered)
+        self._answered += answered
+
+    @property
+    def value(self) -> float:
+        missing = self.window - len(self._outcomes)
+        return (self._answered + self.prior * missing) / self.window
+
+
+class WeightEMA:
+    """``w <- alpha w + (1 - alpha) v``: smooths a noisy urgency signal (paper, eq. 3)."""
+
+    def __init__(self, alpha: float = 0.8, initial: float = 1.0) -> None:
+        if not 0.0 <= alpha <= 1.0:
+            raise ValueError(f"alpha must be in [0, 1], got {alpha}")
+        self.alpha = alpha
+        self.value = initial
+
+    def observe(self, v: float) -> float:
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"urgency must be a finite number >= 0, got {v!r}")
+        self.value = self.alpha * self.value + (1.0 - self.alpha) * v
+        return self.value

@@ -1,0 +1,43 @@
+"""What the leader reports back to its shell after a reply, a timeout or a poll's end."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Delivered:
+    """A whole update arrived and was fresher than anything before it from this follower."""
+
+    follower: str
+    payload: bytes
+    generated_at: float  # on the leader's clock
+    age: float  # seconds between generation and delivery
+    update_seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class TimedOut:
+    """The in-flight poll got no valid reply before its deadline."""
+
+    follower: str
+    poll_seq: int
+
+
+@dataclass(frozen=True, slots=True)
+class Rejected:
+    """A reply that could not be used: malformed, mismatched, or failing its checksum."""
+
+    follower: str
+    reason: str
+
+
+@dataclass(frozen=True, slots=True)
+class Stale:
+    """A well-formed reply that is no longer wanted (old poll, older update, unknown sender)."""
+
+    follower: str
+    reason: str
+
+
+Event = Delivered | TimedOut | Rejected | Stale

@@ -1,0 +1,105 @@
+"""Splitting updates into fragments and putting them back together at the leader."""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, field
+
+from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
+from wiswarm_zenoh.core.errors import WireError
+from wiswarm_zenoh.core.queues import Update
+from wiswarm_zenoh.core.wire import FragmentData
+
+
+def checksum(payload: bytes) -> int:
+    return zlib.crc32(payload) & 0xFFFFFFFF
+
+
+@dataclass
+class OutgoingUpdate:
+    """An update being sent fragment by fragment; ``next_index`` is the first unacked one.
+
+    Stop-and-wait: one fragment per poll, resent until the leader's next poll acks it.
+    """
+
+    update: Update
+    chunk: int
+    next_index: int = 0
+    crc: int = field(init=False)
+    count: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.crc = checksum(self.update.payload)
+        self.count = max(1, -(-len(self.update.payload) // self.chunk))
+
+    @classmethod
+    def for_fragment_size(cls, update: Update, fragment_size: int) -> OutgoingUpdate:
+        return cls(update, chunk=fragment_size - FRAGMENT_HEADER_BYTES)
+
+    @property
+    def done(self) -> bool:
+        return self.next_index >= self.count
+
+    def acknowledge(self, update_seq: int, index: int) -> None:
+        """Advance past the fragment the leader says it received (others are ignored)."""
+        if update_seq == self.update.seq and index == self.next_index:
+            self.next_index += 1
+
+    def fragment(self) -> FragmentData:
+        start = self.next_index * self.chunk
+        payload = self.update.payload
+        return FragmentData(
+            update_seq=self.update.seq, generated_at=self.update.generated_at,
+            index=self.next_index, count=self.count, total_size=len(payload),
+            checksum=self.crc, data=payload[start:start + self.chunk],
+        )
+
+
+class Reassembler:
+    """Collects one follower's fragments of its current update and checks the whole.
+
+    A fragment of a different update starts over (the follower abandoned the old one or
+    restarted); duplicates are ignored; a mismatch of count, size or checksum raises
+    ``WireError`` and drops what was collected.
+    """
+
+    def __init__(self, max_fragments: int, max_update_bytes: int) -> None:
+        self.max_fragments = max_fragments
+        self.max_update_bytes = max_update_bytes
+        self._key: tuple[int, int, int, float] | None = None
+        self._parts: dict[int, bytes] = {}
+        self._size = 0
+
+    def reset(self) -> None:
+        self._key = None
+        self._parts = {}
+        self._size = 0
+
+    def add(self, frag: FragmentData) -> bytes | None:
+        """Store a fragment; return the whole update once every fragment is in."""
+        if frag.count > self.max_fragments:
+            raise WireError(f"{frag.count} fragments exceed the limit of {self.max_fragments}")
+        if frag.total_size > self.max_update_bytes:
+            raise WireError(
+                f"update of {frag.total_size} bytes exceeds the limit of {self.max_update_bytes}"
+            )
+        key = (frag.update_seq, frag.count, frag.checksum, frag.generated_at)
+        if key != self._key:
+            self.reset()
+            self._key = key
+        if frag.index in self._parts:
+            return None
+        if self._size + len(frag.data) > frag.total_size:
+            self.reset()
+            raise WireError("fragments add up to more than the update's size")
+        self._parts[frag.index] = frag.data
+        self._size += len(frag.data)
+        if len(self._parts) < frag.count:
+            return None
+        whole = b"".join(self._parts[i] for i in range(frag.count))
+        self.reset()
+        if len(whole) != frag.total_size:
+            raise WireError(f"reassembled {len(whole)} bytes, expected {frag.total_size}")
+        if checksum(whole) != frag.checksum:
+            raise WireError("checksum mismatch on the reassembled update")
+        return whole

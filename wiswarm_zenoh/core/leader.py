@@ -1,0 +1,201 @@
+"""The leader's state machine: whom to poll, and what a reply or a timeout means."""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from wiswarm_zenoh.core.config import LeaderConfig
+from wiswarm_zenoh.core.errors import WireError
+from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
+from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
+from wiswarm_zenoh.core.policies import make_policy
+from wiswarm_zenoh.core.wire import (
+    Control,
+    Poll,
+    Reply,
+    decode_reply,
+    encode_control,
+    encode_poll,
+    validate_waypoints,
+)
+
+__all__ = ["FollowerStats", "Leader", "PollRequest"]
+
+SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted policies
+
+
+@dataclass(frozen=True, slots=True)
+class PollRequest:
+    """A poll to send: ``payload`` to the follower, ``control`` broadcast alongside."""
+
+    follower: str
+    poll_seq: int
+    payload: bytes
+    control: bytes
+    deadline: float
+
+
+@dataclass(slots=True)
+class _InFlight:
+    follower: str
+    seq: int
+    sent_at: float
+    deadline: float
+
+
+class Leader:
+    """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
+
+    The shell calls ``poll(now)`` when it can send, hands every reply to ``on_reply``,
+    tells ``finish_poll`` when no more replies can come, and fires ``on_timer`` at
+    ``next_timer()``. Bad bytes never raise: they come back as ``Rejected`` events and
+    are counted against the follower.
+    """
+
+    def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None):
+        self.config = config or LeaderConfig()
+        self.policy = make_policy(self.config.policy, rng)
+        self.table = PeerTable()
+        self.unknown_replies = 0
+        self.polls = 0
+        self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
+        self._poll_seq = 0
+        self._control_seq = 0
+        self._in_flight: _InFlight | None = None
+
+    @property
+    def followers(self) -> list[str]:
+        return list(self.table.ids)
+
+    @property
+    def in_flight(self) -> str | None:
+        return None if self._in_flight is None else self._in_flight.follower
+
+    def add_follower(self, follower: str, now: float) -> None:
+        """A follower joined, or rejoined after a restart (its transfer state is reset)."""
+        if not follower:
+            raise ValueError("follower id must be a non-empty string")
+        peer = self.table.peers.get(follower)
+        if peer is None:
+            self.table.add(follower, Peer.new(self.config, now))
+        else:
+            peer.restart()
+
+    def remove_follower(self, follower: str) -> None:
+        """Forget a follower (its liveliness token went); a poll in flight to it is dropped."""
+        if follower not in self.table.peers:
+            return
+        if self._in_flight is not None and self._in_flight.follower == follower:
+            self._in_flight = None
+        self.table.remove(follower)
+
+    def _peer(self, follower: str) -> Peer:
+        try:
+            return self.table.peers[follower]
+        except KeyError:
+            raise ValueError(f"unknown follower {follower!r}") from None
+
+    def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
+        """The application's latest control information for one follower."""
+        self._peer(follower).waypoints = validate_waypoints(waypoints)
+
+    def observe_urgency(self, follower: str, v: float) -> float:
+        """Feed the application's urgency signal into the weight EMA; returns the weight."""
+        weight = self._peer(follower).weight.observe(v)
+        self.table.sync(follower)
+        return weight
+
+    def poll(self, now: float) -> PollRequest | None:
+        """Choose and build the next poll, or None while one is in flight or nobody is here."""
+        if self._in_flight is not None or not self.table.ids:
+            return None
+        table, cfg = self.table, self.config
+        ages = np.maximum(now - table.tau, 0.0) / self.slot
+        w = np.maximum(table.w, cfg.weight_floor)
+        index = self.policy.choose(w, np.maximum(table.p, cfg.p_floor), ages)
+        follower = table.ids[index]
+        peer = table.peers[follower]
+        self._poll_seq += 1
+        self._control_seq += 1
+        self.polls += 1
+        peer.polls += 1
+        deadline = now + cfg.timeout
+        self._in_flight = _InFlight(follower, self._poll_seq, now, deadline)
+        payload = encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want))
+        entries = {fid: p.waypoints for fid, p in table.peers.items() if p.waypoints}
+        control = encode_control(Control(self._control_seq, now, entries))
+        return PollRequest(follower, self._poll_seq, payload, control, deadline)
+
+    def next_timer(self) -> float | None:
+        return None if self._in_flight is None else self._in_flight.deadline
+
+    def on_timer(self, now: float) -> list[Event]:
+        flight = self._in_flight
+        if flight is None or now < flight.deadline:
+            return []
+        return self._unanswered(flight, now)
+
+    def finish_poll(self, now: float) -> list[Event]:
+        """No more replies can come for the poll in flight: unanswered if none was valid."""
+        flight = self._in_flight
+        return [] if flight is None else self._unanswered(flight, now)
+
+    def _unanswered(self, flight: _InFlight, now: float) -> list[Event]:
+        self._complete(flight, answered=False, now=now)
+        self.table.peers[flight.follower].timeouts += 1
+        return [TimedOut(flight.follower, flight.seq)]
+
+    def _complete(self, flight: _InFlight, answered: bool, now: float) -> None:
+        self._in_flight = None
+        self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * max(now - flight.sent_at, 1e-6)
+        self.table.peers[flight.follower].reliability.record(answered)
+        self.table.sync(flight.follower)
+
+    def on_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
+        """Consume one reply from ``follower`` (the key it came from)."""
+        peer = self.table.peers.get(follower)
+        if peer is None:
+            self.unknown_replies += 1
+            return [Stale(follower, "reply from a follower that is not a member")]
+        try:
+            reply = decode_reply(data)
+        except WireError as exc:
+            peer.errors += 1
+            return [Rejected(follower, str(exc))]
+        flight = self._in_flight
+        if flight is None or flight.follower != follower or reply.poll_seq != flight.seq:
+            peer.stale += 1
+            return [Stale(follower, f"reply to poll {reply.poll_seq}, not the one in flight")]
+        if reply.follower != follower:
+            peer.errors += 1
+            return [Rejected(follower, f"reply claims to come from {reply.follower!r}")]
+        self._complete(flight, answered=True, now=now)
+        peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
+        return self._take_fragment(follower, peer, reply, now)
+
+    def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float) -> list[Event]:
+        frag = reply.fragment
+        if frag is None:
+            return []
+        try:
+            whole = peer.reassembler.add(frag)
+        except WireError as exc:
+            peer.errors += 1
+            peer.ack, peer.want = None, "fresh"
+            return [Rejected(follower, str(exc))]
+        peer.ack, peer.want = (frag.update_seq, frag.index), "next"
+        if whole is None:
+            return []
+        generated_at = peer.clock.to_leader(frag.generated_at)
+        if not peer.aoi.deliver(generated_at, now):
+            peer.stale += 1
+            return [Stale(follower, "update older than the freshest delivered")]
+        self.table.sync(follower)
+        return [Delivered(follower, whole, generated_at, now - generated_at, frag.update_seq)]
+
+    def stats(self, follower: str, now: float) -> FollowerStats:
+        return self._peer(follower).stats(follower, now)

@@ -1,0 +1,214 @@
+"""Wire messages (DESIGN.md section 4): msgpack maps with a format version ``v``.
+
+Decoders check every type, size and range and raise nothing but ``WireError``: the bytes
+come from the network and may be anything.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import msgpack
+
+from wiswarm_zenoh.core.errors import WireError
+
+VERSION = 1
+MAX_ID_LENGTH = 128
+MAX_WAYPOINTS = 256
+MAX_CONTROL_ENTRIES = 100_000
+UINT32 = 0xFFFFFFFF
+
+Waypoint = tuple[float, float, float, float]  # (t, x, y, z)
+Want = Literal["next", "fresh"]
+
+
+@dataclass(frozen=True, slots=True)
+class Poll:
+    """The leader's request: which poll this is, when it left, and what arrived last."""
+
+    seq: int
+    leader_time: float
+    ack: tuple[int, int] | None  # (update seq, fragment index) last received from this follower
+    want: Want = "next"
+
+
+@dataclass(frozen=True, slots=True)
+class FragmentData:
+    """One piece of one update, with what the leader needs to check the whole."""
+
+    update_seq: int
+    generated_at: float  # follower clock
+    index: int
+    count: int
+    total_size: int
+    checksum: int  # CRC-32 of the whole update
+    data: bytes
+
+
+@dataclass(frozen=True, slots=True)
+class Reply:
+    """A follower's answer to one poll; ``fragment`` is None for "nothing new"."""
+
+    follower: str
+    poll_seq: int
+    received_at: float  # follower clock, when the poll arrived
+    sent_at: float  # follower clock, when this reply left
+    fragment: FragmentData | None
+
+
+@dataclass(frozen=True, slots=True)
+class Control:
+    """Latest control information for every follower, broadcast with each poll."""
+
+    seq: int
+    leader_time: float
+    entries: Mapping[str, Sequence[Waypoint]]
+
+
+def _pack(obj: dict[str, Any]) -> bytes:
+    packed: bytes = msgpack.packb(obj, use_bin_type=True)
+    return packed
+
+
+def _unpack(data: bytes, kind: str) -> dict[str, Any]:
+    if not isinstance(data, bytes | bytearray | memoryview):
+        raise WireError(f"{kind}: expected bytes, got {type(data).__name__}")
+    try:
+        obj = msgpack.unpackb(bytes(data), raw=False, strict_map_key=True, use_list=True)
+    except Exception as exc:  # msgpack raises many types on garbage
+        raise WireError(f"{kind}: not msgpack ({type(exc).__name__})") from None
+    if not isinstance(obj, dict):
+        raise WireError(f"{kind}: expected a map, got {type(obj).__name__}")
+    if obj.get("v") != VERSION:
+        raise WireError(f"{kind}: unsupported version {obj.get('v')!r}")
+    if obj.get("t") != kind:
+        raise WireError(f"expected a {kind} message, got {obj.get('t')!r}")
+    return obj
+
+
+def _int(obj: Mapping[str, Any], key: str, lo: int = 0, hi: int = 2**63 - 1) -> int:
+    value = obj.get(key)
+    if type(value) is not int or not lo <= value <= hi:
+        raise WireError(f"field {key!r} must be an integer in [{lo}, {hi}], got {value!r}")
+    return value
+
+
+def _float(obj: Mapping[str, Any], key: str) -> float:
+    value = obj.get(key)
+    if not (isinstance(value, float | int) and not isinstance(value, bool)):
+        raise WireError(f"field {key!r} must be a number, got {value!r}")
+    if not math.isfinite(value):
+        raise WireError(f"field {key!r} must be finite, got {value!r}")
+    return float(value)
+
+
+def _ident(value: object, what: str) -> str:
+    if not isinstance(value, str) or not 0 < len(value) <= MAX_ID_LENGTH:
+        raise WireError(f"{what} must be a non-empty string of at most {MAX_ID_LENGTH} chars")
+    return value
+
+
+def encode_poll(poll: Poll) -> bytes:
+    return _pack(
+        {"v": VERSION, "t": "poll", "seq": poll.seq, "lt": poll.leader_time,
+         "ack": list(poll.ack) if poll.ack is not None else None, "want": poll.want}
+    )
+
+
+def decode_poll(data: bytes) -> Poll:
+    obj = _unpack(data, "poll")
+    ack_raw = obj.get("ack")
+    ack: tuple[int, int] | None = None
+    if ack_raw is not None:
+        if not isinstance(ack_raw, list) or len(ack_raw) != 2:
+            raise WireError("field 'ack' must be null or [update_seq, index]")
+        ack_map = {"u": ack_raw[0], "i": ack_raw[1]}
+        ack = (_int(ack_map, "u"), _int(ack_map, "i", hi=UINT32))
+    want = obj.get("want")
+    if want not in ("next", "fresh"):
+        raise WireError(f"field 'want' must be 'next' or 'fresh', got {want!r}")
+    return Poll(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), ack=ack, want=want)
+
+
+def encode_reply(reply: Reply) -> bytes:
+    frag = reply.fragment
+    body = None if frag is None else {
+        "u": frag.update_seq, "g": frag.generated_at, "i": frag.index, "n": frag.count,
+        "size": frag.total_size, "crc": frag.checksum, "data": frag.data,
+    }
+    return _pack(
+        {"v": VERSION, "t": "reply", "from": reply.follower, "poll": reply.poll_seq,
+         "rt": reply.received_at, "st": reply.sent_at, "frag": body}
+    )
+
+
+def _decode_fragment(body: object) -> FragmentData:
+    if not isinstance(body, dict):
+        raise WireError("field 'frag' must be null or a map")
+    data = body.get("data")
+    if not isinstance(data, bytes):
+        raise WireError("fragment 'data' must be bytes")
+    count = _int(body, "n", lo=1, hi=UINT32)
+    index = _int(body, "i", hi=count - 1)
+    total = _int(body, "size", hi=2**40)
+    if len(data) > total:
+        raise WireError(f"fragment of {len(data)} bytes exceeds the update's size {total}")
+    return FragmentData(
+        update_seq=_int(body, "u"), generated_at=_float(body, "g"), index=index, count=count,
+        total_size=total, checksum=_int(body, "crc", hi=UINT32), data=data,
+    )
+
+
+def decode_reply(data: bytes) -> Reply:
+    obj = _unpack(data, "reply")
+    body = obj.get("frag")
+    return Reply(
+        follower=_ident(obj.get("from"), "field 'from'"), poll_seq=_int(obj, "poll"),
+        received_at=_float(obj, "rt"), sent_at=_float(obj, "st"),
+        fragment=None if body is None else _decode_fragment(body),
+    )
+
+
+def validate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Waypoint]:
+    """Check a caller's waypoints: a list of at most MAX_WAYPOINTS finite (t, x, y, z)."""
+    if len(waypoints) > MAX_WAYPOINTS:
+        raise ValueError(f"at most {MAX_WAYPOINTS} waypoints, got {len(waypoints)}")
+    checked: list[Waypoint] = []
+    for wp in waypoints:
+        if len(wp) != 4 or not all(math.isfinite(float(c)) for c in wp):
+            raise ValueError(f"a waypoint must be 4 finite numbers (t, x, y, z), got {wp!r}")
+        checked.append((float(wp[0]), float(wp[1]), float(wp[2]), float(wp[3])))
+    return checked
+
+
+def encode_control(control: Control) -> bytes:
+    return _pack(
+        {"v": VERSION, "t": "control", "seq": control.seq, "lt": control.leader_time,
+         "entries": {k: [list(w) for w in v] for k, v in control.entries.items()}}
+    )
+
+
+def _decode_waypoints(raw: object) -> list[Waypoint]:
+    if not isinstance(raw, list) or len(raw) > MAX_WAYPOINTS:
+        raise WireError(f"control entry must be a list of at most {MAX_WAYPOINTS} waypoints")
+    for wp in raw:
+        if not isinstance(wp, list) or any(type(c) not in (int, float) for c in wp):
+            raise WireError(f"a waypoint must be a list of numbers, got {wp!r}")
+    try:
+        return validate_waypoints(raw)
+    except (ValueError, TypeError) as exc:
+        raise WireError(f"bad waypoint: {exc}") from None
+
+
+def decode_control(data: bytes) -> Control:
+    obj = _unpack(data, "control")
+    entries_raw = obj.get("entries")
+    if not isinstance(entries_raw, dict) or len(entries_raw) > MAX_CONTROL_ENTRIES:
+        raise WireError("field 'entries' must be a map of follower id to waypoints")
+    entries = {
+        _ident(k, "control entry key"): _decode_waypoints(v) for k, v in entries_raw.items()
+    }
+    return Control(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), entries=entries)
