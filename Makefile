@@ -12,7 +12,7 @@ $(STAMP): pyproject.toml
 
 test: $(STAMP)
 	$(PY) -m ruff check wiswarm_zenoh apps tests benchmarks
-	$(PY) -m mypy --strict wiswarm_zenoh
+	$(PY) -m mypy --strict wiswarm_zenoh apps
 	$(PY) -m pytest
 
 demo: $(STAMP)

@@ -1,0 +1,1 @@
+"""Applications built on the wiswarm_zenoh middleware (mobility tracking, demos)."""
