@@ -11,7 +11,10 @@ FloatArray = npt.NDArray[np.float64]
 class AoITracker:
     """``A(t) = t - tau(t)``, tau being the largest time-stamp delivered so far.
 
-    Before the first delivery the age counts from ``start`` (when tracking began). The
+    Before the first delivery the age counts from ``start`` (when tracking began); an
+    update generated earlier is still delivered, it just cannot make the age negative
+    or lower it below zero. Freshness is judged on the time-stamps themselves
+    (``newest``), so a stamp ahead of ``now`` cannot let an older one pass. The
     sawtooth is kept as segments (age at segment start, duration), so the time average,
     percentiles and peak are exact areas and lengths, not samples.
     """
@@ -19,6 +22,7 @@ class AoITracker:
     def __init__(self, start: float) -> None:
         self.start = start
         self.tau = start
+        self.newest = float("-inf")
         self.deliveries = 0
         self._last_event = start
         self._seg_age: list[float] = []
@@ -31,10 +35,11 @@ class AoITracker:
 
     def deliver(self, timestamp: float, now: float) -> bool:
         """Record an update generated at ``timestamp``; only a newer one lowers the age."""
-        if timestamp <= self.tau:
+        if timestamp <= self.newest:
             return False
+        self.newest = timestamp
         self._close_segment(now)
-        self.tau = min(timestamp, now)
+        self.tau = max(self.tau, min(timestamp, now))
         self.deliveries += 1
         return True
 

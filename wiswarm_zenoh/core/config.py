@@ -11,7 +11,7 @@ DropRule = Literal["tail", "head"]
 
 # Bytes of a fragment that are not payload (msgpack map of the reply); a fragment size
 # at or below this could never carry data.
-FRAGMENT_HEADER_BYTES = 256
+FRAGMENT_HEADER_BYTES = 320
 DEFAULT_MAX_UPDATE_BYTES = 16 * 1024 * 1024
 DEFAULT_MAX_FRAGMENTS = 4096
 

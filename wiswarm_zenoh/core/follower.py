@@ -6,12 +6,14 @@ from wiswarm_zenoh.core.config import FollowerConfig
 from wiswarm_zenoh.core.fragments import OutgoingUpdate
 from wiswarm_zenoh.core.queues import RateController, Update, UpdateQueue
 from wiswarm_zenoh.core.wire import (
+    MAX_ID_BYTES,
     Poll,
     Reply,
     Waypoint,
     decode_control,
     decode_poll,
     encode_reply,
+    id_fits,
 )
 
 
@@ -24,8 +26,10 @@ class Follower:
     """
 
     def __init__(self, follower_id: str, config: FollowerConfig | None = None) -> None:
-        if not follower_id:
-            raise ValueError("follower_id must be a non-empty string")
+        if not id_fits(follower_id):
+            raise ValueError(
+                f"follower_id must be a non-empty string of at most {MAX_ID_BYTES} UTF-8 bytes"
+            )
         self.follower_id = follower_id
         self.config = config or FollowerConfig()
         self.queue = UpdateQueue(self.config.queue, self.config.capacity, self.config.drop)
@@ -72,9 +76,9 @@ class Follower:
         if sending is None:
             return
         if poll.want == "fresh":
-            self._sending = None
-            if sending.next_index:
-                self.abandoned += 1
+            # The leader lost what it had of this update: start it over (the abandon
+            # rule may still switch to a fresher one). Never drop it unsent.
+            sending.next_index = 0
             return
         if poll.ack is not None:
             sending.acknowledge(*poll.ack)

@@ -14,12 +14,13 @@ from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOu
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.policies import make_policy
 from wiswarm_zenoh.core.wire import (
-    Control,
     Poll,
     Reply,
+    Waypoint,
     decode_reply,
-    encode_control,
+    encode_control_packed,
     encode_poll,
+    pack_entries,
     validate_waypoints,
 )
 
@@ -66,6 +67,8 @@ class Leader:
         self._poll_seq = 0
         self._control_seq = 0
         self._in_flight: _InFlight | None = None
+        self._waypoints: dict[str, list[Waypoint]] = {}
+        self._packed_control: bytes | None = None  # cache of the packed entries
 
     @property
     def followers(self) -> list[str]:
@@ -92,6 +95,8 @@ class Leader:
         if self._in_flight is not None and self._in_flight.follower == follower:
             self._in_flight = None
         self.table.remove(follower)
+        if self._waypoints.pop(follower, None) is not None:
+            self._packed_control = None
 
     def _peer(self, follower: str) -> Peer:
         try:
@@ -101,7 +106,9 @@ class Leader:
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """The application's latest control information for one follower."""
-        self._peer(follower).waypoints = validate_waypoints(waypoints)
+        self._peer(follower)
+        self._waypoints[follower] = validate_waypoints(waypoints)
+        self._packed_control = None
 
     def observe_urgency(self, follower: str, v: float) -> float:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
@@ -126,8 +133,9 @@ class Leader:
         deadline = now + cfg.timeout
         self._in_flight = _InFlight(follower, self._poll_seq, now, deadline)
         payload = encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want))
-        entries = {fid: p.waypoints for fid, p in table.peers.items() if p.waypoints}
-        control = encode_control(Control(self._control_seq, now, entries))
+        if self._packed_control is None:
+            self._packed_control = pack_entries(self._waypoints)
+        control = encode_control_packed(self._control_seq, now, self._packed_control)
         return PollRequest(follower, self._poll_seq, payload, control, deadline)
 
     def next_timer(self) -> float | None:
@@ -180,6 +188,8 @@ class Leader:
     def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float) -> list[Event]:
         frag = reply.fragment
         if frag is None:
+            peer.idle_since = now
+            self.table.sync(follower)
             return []
         try:
             whole = peer.reassembler.add(frag)

@@ -7,7 +7,7 @@ vectorised pass.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
@@ -16,7 +16,7 @@ from wiswarm_zenoh.core.clock import ClockOffsetEstimator
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
 from wiswarm_zenoh.core.fragments import Reassembler
-from wiswarm_zenoh.core.wire import Want, Waypoint
+from wiswarm_zenoh.core.wire import Want
 
 
 @dataclass(frozen=True)
@@ -51,8 +51,8 @@ class Peer:
     clock: ClockOffsetEstimator
     reassembler: Reassembler
     ack: tuple[int, int] | None = None
+    idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
     want: Want = "next"
-    waypoints: list[Waypoint] = field(default_factory=list)
     polls: int = 0
     timeouts: int = 0
     errors: int = 0
@@ -67,6 +67,12 @@ class Peer:
             clock=ClockOffsetEstimator(config.clock_samples),
             reassembler=Reassembler(config.max_fragments, config.max_update_bytes),
         )
+
+    @property
+    def policy_tau(self) -> float:
+        """What the scheduler ages this follower from: its freshest delivery, or the last
+        time it had nothing newer to send (polling it sooner cannot lower its age)."""
+        return max(self.aoi.tau, self.idle_since)
 
     def restart(self) -> None:
         """The follower came back (new process): forget its transfer state and clock."""
@@ -86,7 +92,10 @@ class Peer:
 
 
 class PeerTable:
-    """Followers in join order, with the arrays (w, p, tau) the policy reads."""
+    """Followers in join order, with the arrays (w, p, tau) the policy reads.
+
+    ``tau`` is each follower's ``policy_tau``: the scheduler's view of its freshness.
+    """
 
     def __init__(self) -> None:
         self.ids: list[str] = []
@@ -105,7 +114,7 @@ class PeerTable:
         self.peers[follower] = peer
         self.w = np.append(self.w, peer.weight.value)
         self.p = np.append(self.p, peer.reliability.value)
-        self.tau = np.append(self.tau, peer.aoi.tau)
+        self.tau = np.append(self.tau, peer.policy_tau)
 
     def remove(self, follower: str) -> None:
         i = self._index[follower]
@@ -118,5 +127,5 @@ class PeerTable:
         i = self._index[follower]
         peer = self.peers[follower]
         self.w[i], self.p[i], self.tau[i] = (
-            peer.weight.value, peer.reliability.value, peer.aoi.tau
+            peer.weight.value, peer.reliability.value, peer.policy_tau
         )

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 
 from wiswarm_zenoh.core.config import DropRule, QueueKind
 
+GRID_TOLERANCE = 1e-6  # of an interval: absorbs float rounding of the producer's clock
+
 
 @dataclass(frozen=True, slots=True)
 class Update:
@@ -77,8 +79,8 @@ class RateController:
         if self._next is None:
             self._next = now + self.interval
             return True
-        if now < self._next:
+        if now < self._next - GRID_TOLERANCE * self.interval:
             return False
-        missed = math.floor((now - self._next) / self.interval)
+        missed = max(0, math.floor((now - self._next) / self.interval))
         self._next += (missed + 1) * self.interval
         return True

@@ -16,7 +16,7 @@ import msgpack
 from wiswarm_zenoh.core.errors import WireError
 
 VERSION = 1
-MAX_ID_LENGTH = 128
+MAX_ID_BYTES = 128  # UTF-8
 MAX_WAYPOINTS = 256
 MAX_CONTROL_ENTRIES = 100_000
 UINT32 = 0xFFFFFFFF
@@ -82,7 +82,7 @@ def _unpack(data: bytes, kind: str) -> dict[str, Any]:
         raise WireError(f"{kind}: not msgpack ({type(exc).__name__})") from None
     if not isinstance(obj, dict):
         raise WireError(f"{kind}: expected a map, got {type(obj).__name__}")
-    if obj.get("v") != VERSION:
+    if type(obj.get("v")) is not int or obj["v"] != VERSION:
         raise WireError(f"{kind}: unsupported version {obj.get('v')!r}")
     if obj.get("t") != kind:
         raise WireError(f"expected a {kind} message, got {obj.get('t')!r}")
@@ -105,9 +105,14 @@ def _float(obj: Mapping[str, Any], key: str) -> float:
     return float(value)
 
 
+def id_fits(value: object) -> bool:
+    """A follower id the wire carries: a non-empty string of at most MAX_ID_BYTES in UTF-8."""
+    return isinstance(value, str) and 0 < len(value.encode("utf-8", "replace")) <= MAX_ID_BYTES
+
+
 def _ident(value: object, what: str) -> str:
-    if not isinstance(value, str) or not 0 < len(value) <= MAX_ID_LENGTH:
-        raise WireError(f"{what} must be a non-empty string of at most {MAX_ID_LENGTH} chars")
+    if not (isinstance(value, str) and id_fits(value)):
+        raise WireError(f"{what} must be a non-empty string of at most {MAX_ID_BYTES} bytes")
     return value
 
 
@@ -184,11 +189,26 @@ def validate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Waypoint]:
     return checked
 
 
-def encode_control(control: Control) -> bytes:
-    return _pack(
-        {"v": VERSION, "t": "control", "seq": control.seq, "lt": control.leader_time,
-         "entries": {k: [list(w) for w in v] for k, v in control.entries.items()}}
+def pack_entries(entries: Mapping[str, Sequence[Waypoint]]) -> bytes:
+    """The msgpack of a control message's entries, to cache while they do not change."""
+    return _pack({k: [list(w) for w in v] for k, v in entries.items()})
+
+
+_CONTROL_HEAD = b"\x85" + b"".join(msgpack.packb(x) for x in ("v", VERSION, "t", "control"))
+_SEQ, _LT, _ENTRIES = (msgpack.packb(k) for k in ("seq", "lt", "entries"))
+
+
+def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes) -> bytes:
+    """A control message around already packed entries: the leader sends one per poll,
+    and re-encoding every follower's waypoints each time would cost O(N) per poll."""
+    return b"".join(
+        (_CONTROL_HEAD, _SEQ, msgpack.packb(seq), _LT, msgpack.packb(float(leader_time)),
+         _ENTRIES, packed_entries)
     )
+
+
+def encode_control(control: Control) -> bytes:
+    return encode_control_packed(control.seq, control.leader_time, pack_entries(control.entries))
 
 
 def _decode_waypoints(raw: object) -> list[Waypoint]:

@@ -1,0 +1,50 @@
+"""Drives a Leader and Followers by hand, with explicit times, for the leader tests."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+from wiswarm_zenoh.core import Event, Follower, Leader, PollRequest
+from wiswarm_zenoh.core.wire import Poll, Reply, decode_poll, decode_reply
+
+
+def poll(leader: Leader, now: float) -> PollRequest:
+    """A poll that must exist (a follower is known and nothing is in flight)."""
+    request = leader.poll(now)
+    assert request is not None
+    return request
+
+
+def exchange(
+    leader: Leader,
+    followers: Mapping[str, Follower],
+    now: float,
+    latency: float = 0.001,
+    clock_offset: float = 0.0,
+) -> tuple[PollRequest, Reply, list[Event]]:
+    """One poll answered over a lossless link: leader at ``now``, follower ``latency`` later.
+
+    ``clock_offset`` is added to every time the follower sees (its clock is off by it).
+    """
+    request = poll(leader, now)
+    at_follower = now + latency + clock_offset
+    raw = followers[request.follower].on_poll(request.payload, at_follower, at_follower)
+    events = leader.on_reply(request.follower, raw, now + 2 * latency)
+    return request, decode_reply(raw), events
+
+
+def poll_message(request: PollRequest) -> Poll:
+    return decode_poll(request.payload)
+
+
+def answer(
+    leader: Leader,
+    followers: Mapping[str, Follower],
+    request: PollRequest,
+    now: float,
+    latency: float = 0.001,
+) -> list[Event]:
+    """The follower answers ``request`` (sent at ``now``) over a lossless link."""
+    at = now + latency
+    raw = followers[request.follower].on_poll(request.payload, at, at)
+    return leader.on_reply(request.follower, raw, at + latency)

@@ -1,0 +1,387 @@
+"""The leader state machine: polls, replies, timeouts, bad and stale input, control."""
+
+from __future__ import annotations
+
+import pytest
+
+from wiswarm_zenoh.core import (
+    Delivered,
+    Event,
+    Follower,
+    FollowerConfig,
+    Leader,
+    LeaderConfig,
+    Rejected,
+    Stale,
+    TimedOut,
+)
+from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
+from wiswarm_zenoh.core.fragments import checksum
+from wiswarm_zenoh.core.wire import FragmentData, Reply, decode_control, encode_reply
+
+from .drive import answer, exchange, poll, poll_message
+
+
+def _setup(*ids: str, config: LeaderConfig | None = None,
+           follower_config: FollowerConfig | None = None) -> tuple[Leader, dict[str, Follower]]:
+    leader = Leader(config or LeaderConfig())
+    followers = {}
+    for fid in ids:
+        leader.add_follower(fid, 0.0)
+        followers[fid] = Follower(fid, follower_config)
+    return leader, followers
+
+
+def _reply(fid: str, poll_seq: int, frag: FragmentData | None, at: float = 1.0) -> bytes:
+    return encode_reply(Reply(fid, poll_seq, at, at, frag))
+
+
+def _assert_delivered(events: list[Event], payload: bytes, generated_at: float, age: float,
+                      update_seq: int) -> None:
+    assert len(events) == 1 and isinstance(events[0], Delivered), events
+    d = events[0]
+    assert (d.follower, d.payload, d.update_seq) == ("a", payload, update_seq)
+    assert d.generated_at == pytest.approx(generated_at)
+    assert d.age == pytest.approx(age)
+
+
+def _aoi(leader: Leader, fid: str, now: float) -> tuple[float, ...]:
+    s = leader.stats(fid, now)
+    return (s.aoi_s, s.mean_aoi_s, s.p95_aoi_s, s.peak_aoi_s, s.deliveries)
+
+
+def test_poll_goes_to_the_first_joined_and_one_at_a_time() -> None:
+    leader, _ = _setup("a", "b", config=LeaderConfig(timeout=0.25))
+    assert Leader().poll(0.0) is None
+    request = poll(leader, 0.0)
+    assert (request.follower, request.poll_seq, request.deadline) == ("a", 1, 0.25)
+    msg = poll_message(request)
+    assert (msg.seq, msg.leader_time, msg.ack, msg.want) == (1, 0.0, None, "next")
+    assert leader.poll(0.1) is None
+    assert leader.in_flight == "a" and leader.next_timer() == 0.25
+    assert leader.followers == ["a", "b"]
+
+
+def test_reply_delivers_the_update_on_the_leader_clock() -> None:
+    leader, followers = _setup("a")
+    followers["a"].offer(b"frame", 0.5)
+    _, _, events = exchange(leader, followers, 1.0)
+    _assert_delivered(events, b"frame", generated_at=0.5, age=0.502, update_seq=1)
+    s = leader.stats("a", 1.002)
+    assert (s.polls, s.deliveries, s.timeouts, s.errors, s.stale) == (1, 1, 0, 0, 0)
+    assert s.aoi_s == pytest.approx(0.502)
+    assert s.p_hat == 1.0 and leader.next_timer() is None
+    assert exchange(leader, followers, 1.1)[2] == []  # nothing new: answered, no event
+    assert poll_message(poll(leader, 1.2)).ack == (1, 0)
+
+
+def test_follower_clock_five_seconds_off() -> None:
+    leader, followers = _setup("a")
+    for k in range(1, 6):
+        followers["a"].offer(bytes([k]), k + 5.0)  # stamped on the follower's clock
+        _, _, events = exchange(leader, followers, k + 0.5, clock_offset=5.0)
+        delivered = [e for e in events if isinstance(e, Delivered)]
+        assert len(delivered) == 1
+        assert delivered[0].generated_at == pytest.approx(float(k))
+        assert delivered[0].age == pytest.approx(0.502)
+    assert leader.stats("a", 6.0).clock_offset_s == pytest.approx(5.0)
+    assert leader.stats("a", 5.502).aoi_s == pytest.approx(0.502)
+
+
+def test_asymmetric_delays_use_the_fastest_exchange() -> None:
+    leader, followers = _setup("a")
+    f = followers["a"]
+    for k, (up, down) in enumerate([(0.050, 0.001), (0.001, 0.001), (0.001, 0.080)]):
+        t1 = 10.0 * k
+        f.offer(bytes([k]), t1 + 5.0)
+        request = poll(leader, t1)
+        raw = f.on_poll(request.payload, t1 + up + 5.0, t1 + up + 5.0)
+        leader.on_reply("a", raw, t1 + up + down)
+    assert leader.stats("a", 30.0).clock_offset_s == pytest.approx(5.0)
+
+
+def test_timeout_lowers_p_hat_and_finish_poll_ends_a_poll() -> None:
+    leader, followers = _setup("a", config=LeaderConfig(window=20, prior_p=1.0, timeout=0.3))
+    request = poll(leader, 0.0)
+    assert leader.on_timer(0.29) == []
+    assert leader.on_timer(0.3) == [TimedOut("a", request.poll_seq)]
+    assert leader.on_timer(0.4) == []
+    assert leader.stats("a", 0.3).p_hat == pytest.approx(0.95)
+    request = poll(leader, 1.0)
+    assert leader.finish_poll(1.05) == [TimedOut("a", request.poll_seq)]
+    assert leader.finish_poll(1.06) == []
+    s = leader.stats("a", 2.0)
+    assert (s.timeouts, s.polls) == (2, 2)
+    assert s.p_hat == pytest.approx(0.9)
+    exchange(leader, followers, 2.0)
+    assert leader.finish_poll(2.01) == []  # a valid reply came: answered
+    assert leader.stats("a", 2.1).p_hat == pytest.approx(0.9)
+    assert leader.stats("a", 2.1).timeouts == 2
+
+
+def test_reply_after_the_timeout_is_stale() -> None:
+    leader, followers = _setup("a")
+    followers["a"].offer(b"x", 0.0)
+    request = poll(leader, 1.0)
+    raw = followers["a"].on_poll(request.payload, 1.1, 1.1)
+    leader.on_timer(request.deadline)
+    before = _aoi(leader, "a", 2.0)
+    assert leader.on_reply("a", raw, 1.5) == [Stale("a", "reply to poll 1, not the one in flight")]
+    assert _aoi(leader, "a", 2.0) == before
+    assert leader.stats("a", 2.0).stale == 1
+
+
+def test_duplicate_reply_is_stale() -> None:
+    leader, followers = _setup("a")
+    followers["a"].offer(b"x", 0.0)
+    request = poll(leader, 1.0)
+    raw = followers["a"].on_poll(request.payload, 1.001, 1.001)
+    assert isinstance(leader.on_reply("a", raw, 1.002)[0], Delivered)
+    events = leader.on_reply("a", raw, 1.003)
+    assert len(events) == 1 and isinstance(events[0], Stale)
+    s = leader.stats("a", 1.003)
+    assert (s.deliveries, s.stale, s.errors) == (1, 1, 0)
+
+
+def test_reply_from_a_follower_not_polled_is_stale() -> None:
+    leader, _ = _setup("a", "b")
+    request = poll(leader, 0.0)
+    assert request.follower == "a"
+    raw_b = _reply("b", request.poll_seq, None)  # right number, wrong key
+    assert isinstance(leader.on_reply("b", raw_b, 0.01)[0], Stale)
+    assert leader.stats("b", 0.01).stale == 1
+    assert leader.in_flight == "a"
+
+
+def test_reply_claiming_another_sender_is_rejected() -> None:
+    leader, _ = _setup("a", "b")
+    request = poll(leader, 0.0)
+    events = leader.on_reply("a", _reply("b", request.poll_seq, None), 0.01)
+    assert len(events) == 1 and isinstance(events[0], Rejected)
+    assert leader.stats("a", 0.01).errors == 1
+    assert leader.in_flight == "a"
+
+
+def test_reply_from_a_stranger_is_stale_and_counted() -> None:
+    leader, _ = _setup("a")
+    events = leader.on_reply("zz", b"\x00", 0.0)
+    assert len(events) == 1 and isinstance(events[0], Stale)
+    assert leader.unknown_replies == 1
+
+
+@pytest.mark.parametrize("garbage", [b"", b"\xff\xfe", b"\x81\xa1v\x01", "not bytes", None])
+def test_garbage_is_counted_as_an_error_without_changing_aoi(garbage: object) -> None:
+    leader, followers = _setup("a")
+    followers["a"].offer(b"x", 0.0)
+    exchange(leader, followers, 0.5)
+    before = _aoi(leader, "a", 3.0)
+    request = poll(leader, 1.0)
+    events = leader.on_reply("a", garbage, 1.01)  # type: ignore[arg-type]
+    assert len(events) == 1 and isinstance(events[0], Rejected)
+    assert leader.stats("a", 3.0).errors == 1
+    assert _aoi(leader, "a", 3.0) == before
+    assert leader.in_flight == "a"  # still waiting for a valid reply
+    assert leader.on_reply("a", _reply("a", request.poll_seq, None), 1.02) == []
+
+
+def test_checksum_mismatch_is_rejected_and_the_leader_asks_for_a_fresh_update() -> None:
+    leader, _ = _setup("a")
+    request = poll(leader, 1.0)
+    frag = FragmentData(1, 0.5, 0, 1, 4, checksum(b"abcd") ^ 1, b"abcd")
+    events = leader.on_reply("a", _reply("a", request.poll_seq, frag), 1.01)
+    assert len(events) == 1 and isinstance(events[0], Rejected)
+    assert "checksum" in events[0].reason
+    s = leader.stats("a", 1.01)
+    assert (s.errors, s.deliveries, s.p_hat) == (1, 0, 1.0)  # answered, but unusable
+    msg = poll_message(poll(leader, 1.1))
+    assert (msg.ack, msg.want) == (None, "fresh")
+
+
+def test_update_over_the_leader_limits_is_rejected() -> None:
+    leader, _ = _setup("a", config=LeaderConfig(max_update_bytes=3, max_fragments=2))
+    for frag in (FragmentData(1, 0.5, 0, 1, 4, checksum(b"abcd"), b"abcd"),
+                 FragmentData(1, 0.5, 0, 3, 3, 0, b"a")):
+        request = poll(leader, 1.0)
+        events = leader.on_reply("a", _reply("a", request.poll_seq, frag), 1.01)
+        assert len(events) == 1 and isinstance(events[0], Rejected)
+    assert leader.stats("a", 2.0).errors == 2
+
+
+def test_fragmented_update_is_reassembled_across_polls_and_losses() -> None:
+    cfg = FollowerConfig(fragment_size=FRAGMENT_HEADER_BYTES + 100)
+    leader, followers = _setup("a", follower_config=cfg)
+    payload = bytes(i % 251 for i in range(450))
+    followers["a"].offer(payload, 0.5)
+    delivered: list[Delivered] = []
+    for k in range(8):
+        t = 1.0 + k
+        if k in (2, 3):  # both polls' replies lost
+            request = poll(leader, t)
+            followers["a"].on_poll(request.payload, t, t)
+            leader.on_timer(request.deadline)
+            continue
+        delivered += [e for e in exchange(leader, followers, t)[2] if isinstance(e, Delivered)]
+    assert [d.payload for d in delivered] == [payload]
+    assert leader.stats("a", 9.0).timeouts == 2
+
+
+def test_rejoin_after_restart_with_reset_sequence_numbers() -> None:
+    cfg = FollowerConfig(fragment_size=FRAGMENT_HEADER_BYTES + 10)
+    leader, followers = _setup("a", follower_config=cfg)
+    for k in range(3):
+        followers["a"].offer(bytes([k]), k + 0.25)
+        exchange(leader, followers, k + 0.5)
+    followers["a"].offer(bytes(30), 3.25)  # three fragments; one gets through
+    exchange(leader, followers, 3.5)
+    assert leader.stats("a", 4.0).deliveries == 3
+    followers["a"] = Follower("a", cfg)  # restarted process: update seq back at 1
+    leader.add_follower("a", 4.0)
+    assert leader.followers == ["a"]
+    followers["a"].offer(b"again", 4.1)
+    request, reply, events = exchange(leader, followers, 4.5)
+    assert (poll_message(request).ack, poll_message(request).want) == (None, "fresh")
+    assert reply.fragment is not None and reply.fragment.update_seq == 1
+    _assert_delivered(events, b"again", generated_at=4.1, age=0.402, update_seq=1)
+    assert poll_message(poll(leader, 5.0)).want == "next"
+
+
+def test_remove_while_in_flight() -> None:
+    leader, followers = _setup("a", "b")
+    followers["a"].offer(b"x", 0.0)
+    request = poll(leader, 0.0)
+    raw = followers["a"].on_poll(request.payload, 0.001, 0.001)
+    leader.remove_follower("a")
+    assert leader.followers == ["b"]
+    assert leader.in_flight is None and leader.next_timer() is None
+    assert leader.on_timer(10.0) == [] and leader.finish_poll(10.0) == []
+    events = leader.on_reply("a", raw, 0.002)
+    assert len(events) == 1 and isinstance(events[0], Stale)
+    assert leader.unknown_replies == 1
+    assert poll(leader, 0.01).follower == "b"
+    with pytest.raises(ValueError, match="unknown follower"):
+        leader.stats("a", 0.01)
+    leader.remove_follower("a")  # already gone: nothing to do
+    leader.remove_follower("b")
+    assert leader.poll(1.0) is None
+
+
+def test_remove_another_follower_keeps_the_poll_in_flight() -> None:
+    leader, followers = _setup("a", "b", "c")
+    followers["a"].offer(b"x", 0.0005)
+    request = poll(leader, 0.001)
+    leader.remove_follower("b")
+    raw = followers["a"].on_poll(request.payload, 0.002, 0.002)
+    assert [type(e) for e in leader.on_reply("a", raw, 0.003)] == [Delivered]
+    assert leader.stats("a", 0.003).p_hat == 1.0
+    assert poll(leader, 0.01).follower == "c"
+
+
+def test_heavier_follower_is_polled_first() -> None:
+    leader, _ = _setup("a", "b", config=LeaderConfig(alpha=0.5))
+    assert leader.observe_urgency("b", 3.0) == pytest.approx(2.0)
+    assert leader.stats("b", 0.0).weight == pytest.approx(2.0)
+    assert poll(leader, 1.0).follower == "b"  # equal ages: the heavier one
+    with pytest.raises(ValueError, match="unknown follower"):
+        leader.observe_urgency("zz", 1.0)
+    with pytest.raises(ValueError, match="urgency"):
+        leader.observe_urgency("a", -1.0)
+
+
+def test_weight_floor_keeps_a_follower_without_urgency_in_the_schedule() -> None:
+    leader, followers = _setup("a", "b", config=LeaderConfig(alpha=0.0, weight_floor=0.1))
+    assert leader.observe_urgency("b", 0.0) == 0.0
+    followers["a"].offer(b"1", 0.9)
+    assert exchange(leader, followers, 1.0)[0].follower == "a"  # 1 * 1 > 0.1 * 1
+    followers["a"].offer(b"2", 9.99)
+    assert exchange(leader, followers, 10.0)[0].follower == "a"  # 9.1^2 > 0.1 * 10^2
+    # a: 0.51^2 = 0.26 < b: 0.1 * 10.5^2 = 11 (with weight 0, b would never be chosen)
+    assert poll(leader, 10.5).follower == "b"
+
+
+def test_silent_follower_is_still_probed_thanks_to_p_floor() -> None:
+    leader, followers = _setup("a", "dead", config=LeaderConfig(window=5, timeout=0.1))
+    t, probes = 0.0, 0
+    for _ in range(400):
+        request = poll(leader, t)
+        if request.follower == "dead":
+            probes += 1
+            t = request.deadline
+            leader.on_timer(t)
+        else:
+            followers["a"].offer(b"x", t)
+            answer(leader, followers, request, t)
+            t += 0.002
+    assert leader.stats("dead", t).p_hat == 0.0
+    assert probes >= 5
+
+
+def test_control_is_broadcast_with_every_poll() -> None:
+    leader, followers = _setup("a", "b")
+    wps = [(1.0, 2.0, 3.0, 4.0)]
+    leader.set_control("a", wps)
+    first = poll(leader, 1.0)
+    control = decode_control(first.control)
+    assert control.entries == {"a": wps}
+    assert control.leader_time == 1.0
+    assert followers["a"].on_control(first.control) == wps
+    assert followers["b"].on_control(first.control) is None
+    leader.finish_poll(1.1)
+    second = poll(leader, 1.2)
+    assert decode_control(second.control).seq > control.seq
+    assert followers["a"].on_control(first.control) is None  # older: ignored
+    assert followers["a"].on_control(second.control) == wps
+    with pytest.raises(ValueError, match="unknown follower"):
+        leader.set_control("zz", wps)
+    with pytest.raises(ValueError):
+        leader.set_control("a", [(0.0, 0.0, 0.0)])
+
+
+def test_restarted_leader_is_still_obeyed() -> None:
+    leader, followers = _setup("a")
+    leader.set_control("a", [(1.0, 0.0, 0.0, 0.0)])
+    for k in range(5):
+        followers["a"].on_control(poll(leader, float(k)).control)
+        leader.finish_poll(k + 0.1)
+    fresh_leader = Leader()
+    fresh_leader.add_follower("a", 10.0)
+    fresh_leader.set_control("a", [(9.0, 9.0, 9.0, 9.0)])
+    request = poll(fresh_leader, 10.0)
+    assert decode_control(request.control).seq == 1
+    assert followers["a"].on_control(request.control) == [(9.0, 9.0, 9.0, 9.0)]
+
+
+def test_first_update_generated_before_the_follower_was_added_is_delivered() -> None:
+    """A follower is discovered while its freshest update already waits: the application
+    must still get that update (nothing was delivered before, so it is not stale)."""
+    leader = Leader()
+    follower = Follower("a")
+    follower.offer(b"first frame", 9.95)
+    leader.add_follower("a", 10.0)
+    events = answer(leader, {"a": follower}, poll(leader, 10.0), 10.0)
+    assert [type(e).__name__ for e in events] == ["Delivered"]
+
+
+def test_follower_with_nothing_to_send_does_not_starve_the_others() -> None:
+    """b is up but has produced nothing yet (camera warming up): its age, counted from
+    when it joined, only grows, but polling it again cannot lower it; a must still be
+    polled and its AoI stay near the poll period."""
+    leader, followers = _setup("a", "b")
+    t, polled = 0.0, {"a": 0, "b": 0}
+    for _ in range(50):
+        t += 0.01
+        followers["a"].offer(b"frame", t - 0.005)
+        polled[exchange(leader, followers, t)[0].follower] += 1
+    assert polled["a"] >= 10
+    assert leader.stats("a", t).aoi_s < 0.1
+
+
+def test_update_whose_reply_was_lost_after_a_rejoin_is_still_delivered() -> None:
+    leader, followers = _setup("a")
+    followers["a"] = Follower("a")  # restarted
+    leader.add_follower("a", 1.0)
+    followers["a"].offer(b"only frame", 1.5)
+    request = poll(leader, 2.0)
+    followers["a"].on_poll(request.payload, 2.001, 2.001)  # the reply is lost
+    leader.on_timer(request.deadline)
+    events = answer(leader, followers, poll(leader, 3.0), 3.0)
+    assert [type(e) for e in events] == [Delivered]
