@@ -16,7 +16,7 @@ from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 
 # Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
 # ``func`` (args -> exit code) on the parsers it adds.
-SUBCOMMAND_MODULES: tuple[str, ...] = ()
+SUBCOMMAND_MODULES: tuple[str, ...] = ("wiswarm_zenoh.cli.sim",)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,181 @@
+"""``wiswarm sim slotted|wifi`` and ``wiswarm experiment sweep``: the simulator's CLI."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.sim.metrics import WifiResult
+from wiswarm_zenoh.sim.report import write_report
+from wiswarm_zenoh.sim.scenario import (
+    DEFAULT_RELIABILITY,
+    PAPER_FRAME_BYTES,
+    SYSTEMS,
+    WifiScenario,
+    run_wifi,
+)
+from wiswarm_zenoh.sim.slotted import DEFAULT_SLOTS, SlottedSpec, run_slotted
+from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, SweepConfig, run_sweep, summarise
+
+
+def _range(text: str) -> tuple[float, float]:
+    """``LO:HI`` as two floats (argparse type)."""
+    try:
+        lo, hi = (float(part) for part in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected LO:HI, got {text!r}") from None
+    return lo, hi
+
+
+def _numbers(text: str) -> tuple[float, ...]:
+    """A comma-separated list of numbers (argparse type)."""
+    try:
+        return tuple(float(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected numbers like 1,3,5, got {text!r}") from None
+
+
+def _build(factory: Any, **kwargs: Any) -> Any:
+    """Construct a validated spec; its ValueError is the user's mistake."""
+    try:
+        return factory(**kwargs)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _print_json(obj: object) -> None:
+    print(json.dumps(obj, indent=2))
+
+
+def _slotted(args: argparse.Namespace) -> int:
+    spec = _build(SlottedSpec, n=args.n, policy=args.policy, seed=args.seed,
+                  weights=args.weights, reliability=args.reliability, slots=args.slots)
+    result = run_slotted(spec)
+    if args.json:
+        _print_json(result.as_dict())
+    else:
+        print(f"{result.policy}: N={result.n} EWSAoI={result.ewsaoi:.3f} slots, "
+              f"L_B={result.lower_bound:.3f}, ratio={result.ratio:.4f}")
+    return 0
+
+
+def _print_wifi(result: WifiResult) -> None:
+    print(f"{result.system} N={result.n} over {result.duration:g} s:")
+    print(f"{'follower':>10} {'mean AoI':>10} {'p95 AoI':>10} {'peak AoI':>10} {'fps':>8}")
+    for f in result.followers:
+        print(f"{f.follower:>10} {f.mean_aoi_s:10.4f} {f.p95_aoi_s:10.4f} "
+              f"{f.peak_aoi_s:10.4f} {f.throughput_fps:8.2f}")
+    print(f"{'mean':>10} {result.mean('mean_aoi_s'):10.4f} {result.mean('p95_aoi_s'):10.4f} "
+          f"{result.mean('peak_aoi_s'):10.4f} {result.mean('throughput_fps'):8.2f}")
+
+
+def _wifi(args: argparse.Namespace) -> int:
+    if args.system == "wiswarm" and args.rate is not None:
+        raise UsageError("--rate is the push rate of udp and tcp; WiSwarm samples at --sample-rate")
+    scenario = _build(
+        WifiScenario, n=args.n, system=args.system,
+        rate=50.0 if args.rate is None else args.rate, frame_bytes=args.frame_bytes,
+        duration=args.duration, seed=args.seed, reliability=args.reliability,
+        fifo_frames=args.fifo_frames, sample_rate=args.sample_rate, policy=args.policy,
+    )
+    result = run_wifi(scenario)
+    if args.json:
+        _print_json(result.as_dict())
+    else:
+        _print_wifi(result)
+    return 0
+
+
+class ProgressBar:
+    """``[#####-----] done/total  elapsed`` on stderr, redrawn in place."""
+
+    def __init__(self, label: str, width: int = 30) -> None:
+        self.label = label
+        self.width = width
+        self.started = time.monotonic()
+
+    def __call__(self, done: int, total: int) -> None:
+        filled = self.width * done // max(total, 1)
+        elapsed = time.monotonic() - self.started
+        bar = "#" * filled + "-" * (self.width - filled)
+        end = "\n" if done >= total else ""
+        print(f"\r{self.label} [{bar}] {done}/{total} runs {elapsed:6.0f} s", end=end,
+              file=sys.stderr, flush=True)
+
+
+def _sweep(args: argparse.Namespace) -> int:
+    if args.jobs < 1:
+        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
+    if any(n != int(n) for n in args.ns):
+        raise UsageError("--ns must be whole numbers")
+    config = _build(
+        SweepConfig, ns=tuple(int(n) for n in args.ns), rates=args.rates,
+        fixed_rate=args.fixed_rate, batches=args.batches, duration=args.duration,
+        seed=args.seed, frame_bytes=args.frame_bytes,
+    )
+    out = args.out or Path("runs") / time.strftime("sweep-%Y%m%d-%H%M%S")
+    results = run_sweep(config, args.jobs, ProgressBar("sweep"))
+    files = write_report(out, config, results, summarise(config, results))
+    for path in files:
+        print(path)
+    print(files[-1].read_text(), end="")
+    return 0
+
+
+def register(subparsers: Any) -> None:
+    """Add ``sim`` (slotted, wifi) and ``experiment`` (sweep)."""
+    sim = subparsers.add_parser("sim", help="simulate polling over a shared channel")
+    kinds = sim.add_subparsers(dest="channel", metavar="CHANNEL", parser_class=OneLineParser)
+    kinds.required = True
+
+    slotted = kinds.add_parser("slotted", help="Kadota et al.'s slotted model, against L_B")
+    slotted.add_argument("--n", type=int, required=True, help="number of followers")
+    slotted.add_argument("--policy", default="whittle", help=f"one of {', '.join(POLICIES)}")
+    slotted.add_argument("--seed", type=int, default=0)
+    slotted.add_argument("--weights", type=_range, default=(1.0, 5.0), metavar="LO:HI",
+                         help="weights drawn from U[LO, HI] (default 1:5)")
+    slotted.add_argument("--reliability", type=_range, default=(0.5, 1.0), metavar="LO:HI",
+                         help="success probabilities from U[LO, HI] (default 0.5:1)")
+    slotted.add_argument("--slots", type=int, default=DEFAULT_SLOTS)
+    slotted.add_argument("--json", action="store_true", help="print one JSON object")
+    slotted.set_defaults(func=_slotted)
+
+    wifi = kinds.add_parser("wifi", help="an 802.11 shared medium with CSMA/CA")
+    wifi.add_argument("--n", type=int, required=True, help="number of followers (UAVs)")
+    wifi.add_argument("--system", default="wiswarm", help=f"one of {', '.join(SYSTEMS)}")
+    wifi.add_argument("--rate", type=float, help="udp/tcp frames per second (default 50)")
+    wifi.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES)
+    wifi.add_argument("--duration", type=float, default=240.0, help="simulated seconds")
+    wifi.add_argument("--seed", type=int, default=0)
+    lo, hi = DEFAULT_RELIABILITY
+    wifi.add_argument("--reliability", type=_range, default=DEFAULT_RELIABILITY,
+                      metavar="LO:HI", help=f"per-attempt MAC success, U[LO, HI] ({lo}:{hi})")
+    wifi.add_argument("--fifo-frames", type=int, help="bound the baselines' FIFO (unbounded)")
+    wifi.add_argument("--sample-rate", type=float, default=100.0, help="WiSwarm cameras, fps")
+    wifi.add_argument("--policy", default="whittle", help="WiSwarm's scheduling policy")
+    wifi.add_argument("--json", action="store_true", help="print one JSON object")
+    wifi.set_defaults(func=_wifi)
+
+    experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
+    studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
+    studies.required = True
+    sweep = studies.add_parser("sweep", help="the stationary study: AoI against N and rate")
+    sweep.add_argument("--ns", type=_numbers, default=tuple(float(n) for n in PAPER_NS),
+                       help="numbers of UAVs (default 2,4,...,14)")
+    sweep.add_argument("--rates", type=_numbers, default=PAPER_RATES,
+                       help="the baselines' rate grid, fps (default the paper's)")
+    sweep.add_argument("--fixed-rate", type=float, default=50.0)
+    sweep.add_argument("--batches", type=int, default=4)
+    sweep.add_argument("--duration", type=float, default=240.0, help="seconds per batch")
+    sweep.add_argument("--seed", type=int, default=0)
+    sweep.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES)
+    sweep.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    sweep.add_argument("--out", type=Path, help="output directory (runs/sweep-<timestamp>)")
+    sweep.set_defaults(func=_sweep)

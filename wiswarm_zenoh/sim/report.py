@@ -1,0 +1,171 @@
+"""Files of a sweep: CSV of every run and of the summary, figures shaped like the
+paper's (Figs. 3-6), and a markdown table of WiSwarm's gains at N = 8 and N = 14."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+
+from wiswarm_zenoh.sim.metrics import WifiResult
+from wiswarm_zenoh.sim.sweep import BASELINES, METRICS, Point, SweepConfig
+
+# The paper's reported gains of WiSwarm (Section IV-A), where it states them.
+PAPER_GAINS: dict[tuple[int, str, str], str] = {
+    (8, "fixed", "mean_aoi_s"): "16x",
+    (14, "udp-fixed", "mean_aoi_s"): "109x",
+    (14, "tcp-fixed", "mean_aoi_s"): "48x",
+    (8, "opt", "mean_aoi_s"): "1.5x",
+    (14, "opt", "mean_aoi_s"): "2.2x",
+    (8, "fixed", "p95_aoi_s"): "18x",
+    (14, "fixed", "p95_aoi_s"): "36x",
+    (8, "opt", "p95_aoi_s"): "1.2x",
+    (14, "opt", "p95_aoi_s"): "1.7x",
+    (8, "opt", "throughput_mbps"): "1.2x",
+    (14, "opt", "throughput_mbps"): "2.7x",
+}
+
+
+def write_runs_csv(path: Path, results: Sequence[WifiResult]) -> None:
+    counters = list(dict.fromkeys(key for r in results for key in r.channel))
+    with path.open("w", newline="") as fh:
+        out = csv.writer(fh)
+        out.writerow(["system", "n", "rate", "seed", "duration", *METRICS, *counters])
+        for r in results:
+            out.writerow([
+                r.system, r.n, "" if r.rate is None else r.rate, r.seed, r.duration,
+                *(f"{r.mean(m):.6g}" for m in METRICS),
+                *(f"{r.channel[c]:.6g}" if c in r.channel else "" for c in counters),
+            ])
+
+
+def write_summary_csv(path: Path, points: Sequence[Point]) -> None:
+    with path.open("w", newline="") as fh:
+        out = csv.writer(fh)
+        stat_names = [f"{m}_{s}" for m in METRICS for s in ("mean", "std")]
+        out.writerow(["label", "n", "rate", *stat_names])
+        for p in points:
+            stats = [f"{v:.6g}" for m in METRICS for v in (p.mean[m], p.std[m])]
+            out.writerow([p.label, p.n, "" if p.rate is None else p.rate, *stats])
+
+
+def _series(points: Sequence[Point], label: str) -> list[Point]:
+    return sorted((p for p in points if p.label == label), key=lambda p: p.n)
+
+
+def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str,
+                   fixed_rate: float, log: bool) -> None:
+    """Two panels like the paper's: (a) fixed-rate baselines, (b) rate-optimised ones."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=log)
+    panels = (
+        ("(a) fixed rate", [f"{b}@{fixed_rate:g}" for b in BASELINES]),
+        ("(b) optimised rate", [f"{b}-opt" for b in BASELINES]),
+    )
+    for ax, (title, labels) in zip(axes, panels, strict=True):
+        for label in [*labels, "wiswarm"]:
+            series = _series(points, label)
+            ax.errorbar([p.n for p in series], [p.mean[metric] for p in series],
+                        yerr=[p.std[metric] for p in series], marker="o", capsize=3, label=label)
+        ax.set_title(title)
+        ax.set_xticks(sorted({p.n for p in points}))
+        ax.set_xlabel("number of UAVs N")
+        ax.set_ylabel(ylabel)
+        if log:
+            ax.set_yscale("log")
+        ax.grid(True, alpha=0.3)
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def plot_against_rate(path: Path, points: Sequence[Point], n: int) -> None:
+    """Mean AoI of the baselines against their frame rate at one N (the paper's Fig. 3a)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for system in BASELINES:
+        series = sorted((p for p in points if p.n == n and p.label.startswith(f"{system}@")),
+                        key=lambda p: p.rate or 0.0)
+        ax.plot([p.rate or 0.0 for p in series], [p.mean["mean_aoi_s"] for p in series], marker="o",
+                label=f"WiFi-{system.upper()}")
+    for p in _series(points, "wiswarm"):
+        if p.n == n:
+            ax.axhline(p.mean["mean_aoi_s"], color="k", linestyle="--", label="WiSwarm (100 fps)")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("frame rate per UAV (fps)")
+    ax.set_ylabel("mean AoI per UAV (s)")
+    ax.set_title(f"N = {n}")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def gains_table(points: Sequence[Point], config: SweepConfig, ns: Sequence[int]) -> str:
+    """Markdown: baseline / WiSwarm for AoI, WiSwarm / baseline for throughput."""
+    lines = [
+        "| N | baseline | rate (fps) | mean AoI gain | p95 AoI gain | throughput gain "
+        "| paper (mean / p95 / throughput) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    index = {(p.label, p.n): p for p in points}
+    for n in ns:
+        ours = index.get(("wiswarm", n))
+        if ours is None:
+            continue
+        for system in BASELINES:
+            for kind, label in (("fixed", f"{system}@{config.fixed_rate:g}"),
+                                ("opt", f"{system}-opt")):
+                base = index[(label, n)]
+                gains = [
+                    base.mean["mean_aoi_s"] / ours.mean["mean_aoi_s"],
+                    base.mean["p95_aoi_s"] / ours.mean["p95_aoi_s"],
+                    ours.mean["throughput_mbps"] / max(base.mean["throughput_mbps"], 1e-12),
+                ]
+                paper = " / ".join(
+                    PAPER_GAINS.get((n, f"{system}-{kind}", m), PAPER_GAINS.get((n, kind, m), "-"))
+                    for m in ("mean_aoi_s", "p95_aoi_s", "throughput_mbps")
+                )
+                rate = f"{base.rate:g}" if base.rate is not None else "-"
+                cells = " | ".join(f"{g:.1f}x" for g in gains)
+                lines.append(f"| {n} | {label} | {rate} | {cells} | {paper} |")
+    return "\n".join(lines) + "\n"
+
+
+def write_report(out: Path, config: SweepConfig, results: Sequence[WifiResult],
+                 points: Sequence[Point]) -> list[Path]:
+    """Write every file of the sweep into ``out``; returns their paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    files = [out / "runs.csv", out / "summary.csv", out / "mean_aoi.png", out / "p95_aoi.png",
+             out / "throughput.png"]
+    write_runs_csv(files[0], results)
+    write_summary_csv(files[1], points)
+    plot_against_n(files[2], points, "mean_aoi_s", "mean AoI per UAV (s)", config.fixed_rate, True)
+    plot_against_n(files[3], points, "p95_aoi_s", "95th percentile AoI per UAV (s)",
+                   config.fixed_rate, True)
+    plot_against_n(files[4], points, "throughput_mbps", "throughput per UAV (Mbit/s)",
+                   config.fixed_rate, False)
+    rate_n = min(config.ns, key=lambda n: abs(n - 6))  # the paper shows N = 6
+    files.append(out / f"aoi_vs_rate_n{rate_n}.png")
+    plot_against_rate(files[-1], points, rate_n)
+    table_ns: list[int] = [n for n in (8, 14) if n in config.ns] or [max(config.ns)]
+    files.append(out / "gains.md")
+    header = (
+        f"# WiSwarm against WiFi push baselines (simulated, {config.batches} batches of "
+        f"{config.duration:g} s, {config.frame_bytes} B frames)\n\n"
+        "Gain = baseline / WiSwarm for AoI, WiSwarm / baseline for throughput; "
+        "`-opt` = the grid rate with the lowest mean AoI at that N.\n\n"
+    )
+    files[-1].write_text(header + gains_table(points, config, table_ns))
+    return files

@@ -1,0 +1,115 @@
+"""One run over the ``wifi`` channel: WiSwarm or a push baseline, N followers, one seed."""
+
+from __future__ import annotations
+
+import math
+import random
+from dataclasses import dataclass, field
+
+from wiswarm_zenoh.core.aoi import AoITracker
+from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.sim.engine import Engine
+from wiswarm_zenoh.sim.medium import Medium
+from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
+from wiswarm_zenoh.sim.phy import Airtime, WifiParams
+from wiswarm_zenoh.sim.slotted import check_range
+from wiswarm_zenoh.sim.source import PeriodicFifo
+from wiswarm_zenoh.sim.tcp import TcpFlow
+from wiswarm_zenoh.sim.udp import UdpPush
+from wiswarm_zenoh.sim.wiswarm import STAMP, WiswarmNetwork
+
+SYSTEMS = ("wiswarm", "udp", "tcp")
+PAPER_FRAME_BYTES = 224 * 224  # the paper's grayscale frames, 49 kB
+# Per-attempt MAC frame success on each follower's link, drawn per follower: rate
+# adaptation (e.g. minstrel) settles near 10 % frame loss, here with some spread.
+DEFAULT_RELIABILITY = (0.85, 0.95)
+# A sequential poll over Zenoh through a router took 0.5-0.8 ms on loopback
+# (DESIGN.md section 3): the hosts' share of every poll cycle.
+DEFAULT_HOST_DELAY = 0.5e-3
+
+
+@dataclass(frozen=True)
+class WifiScenario:
+    """Everything that defines one run; validated on construction (ValueError)."""
+
+    n: int
+    system: str = "wiswarm"
+    rate: float = 50.0  # push baselines: frames per second into the FIFO
+    frame_bytes: int = PAPER_FRAME_BYTES
+    duration: float = 240.0
+    seed: int = 0
+    reliability: tuple[float, float] = DEFAULT_RELIABILITY
+    fifo_frames: int | None = None  # the baselines' application FIFO (None: unbounded)
+    sample_rate: float = 100.0  # WiSwarm cameras
+    host_delay: float = DEFAULT_HOST_DELAY
+    policy: str = "whittle"
+    params: WifiParams = field(default_factory=WifiParams)
+    follower_config: FollowerConfig = field(default_factory=FollowerConfig)
+
+    def __post_init__(self) -> None:
+        if self.n < 1:
+            raise ValueError(f"n must be >= 1, got {self.n}")
+        if self.system not in SYSTEMS:
+            raise ValueError(f"system must be one of {', '.join(SYSTEMS)}, got {self.system!r}")
+        for name in ("rate", "duration", "sample_rate"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value}")
+        if not (math.isfinite(self.host_delay) and self.host_delay >= 0):
+            raise ValueError(f"host_delay must be >= 0, got {self.host_delay}")
+        limit = self.follower_config.max_update_bytes
+        if not STAMP.size <= self.frame_bytes <= limit:
+            raise ValueError(
+                f"frame_bytes must be in {STAMP.size}..{limit} (max_update_bytes), "
+                f"got {self.frame_bytes}"
+            )
+        check_range("reliability", *self.reliability, 0.0, 1.0)
+        if self.fifo_frames is not None and self.fifo_frames < 1:
+            raise ValueError(f"fifo_frames must be >= 1, got {self.fifo_frames}")
+        LeaderConfig(policy=self.policy)
+
+
+def run_wifi(s: WifiScenario) -> WifiResult:
+    """Simulate ``s.duration`` seconds and measure every follower's AoI on ground truth."""
+    rng = random.Random(s.seed)
+    p = [rng.uniform(*s.reliability) for _ in range(s.n)]
+    engine = Engine(rng.getrandbits(64))
+    medium = Medium(engine, s.params)
+    air = Airtime(s.params)
+    leader = medium.station("leader")
+    stations = [medium.station(f"uav{i}") for i in range(s.n)]
+    sinks = [AoITracker(0.0) for _ in range(s.n)]
+    net: WiswarmNetwork | None = None
+    if s.system == "wiswarm":
+        net = WiswarmNetwork(
+            engine, medium, air, leader, stations, p, sinks, s.frame_bytes, s.sample_rate,
+            s.host_delay, LeaderConfig(policy=s.policy), s.follower_config,
+        )
+        net.start()
+    for i, station in enumerate(stations if net is None else []):
+        fifo = PeriodicFifo(s.rate, rng.random() / s.rate, s.fifo_frames)
+        if s.system == "udp":
+            UdpPush(engine, medium, station, fifo, air, s.frame_bytes, p[i], sinks[i]).start()
+        else:
+            TcpFlow(
+                engine, medium, station, leader, fifo, air, s.frame_bytes, p[i], sinks[i]
+            ).start()
+    engine.run(s.duration)
+    followers = [
+        FollowerMetrics.from_tracker(f"uav{i}", sink, s.duration, s.frame_bytes)
+        for i, sink in enumerate(sinks)
+    ]
+    channel = {
+        "utilisation": medium.busy_time / s.duration,
+        "transmissions": float(medium.transmissions),
+        "collision_share": medium.collisions / max(medium.transmissions, 1),
+    }
+    if net is not None:
+        channel["polls"] = float(net.leader.polls)
+        channel["timeouts"] = float(sum(net.leader.stats(f, s.duration).timeouts
+                                        for f in net.leader.followers))
+    return WifiResult(
+        system=s.system, n=s.n, rate=None if s.system == "wiswarm" else s.rate,
+        frame_bytes=s.frame_bytes, duration=s.duration, seed=s.seed, followers=followers,
+        channel=channel,
+    )
