@@ -89,3 +89,18 @@ def test_reset_forgets_samples() -> None:
 def test_rejects_an_empty_window() -> None:
     with pytest.raises(ValueError, match="samples"):
         ClockOffsetEstimator(samples=0)
+
+
+def test_synchronised_clocks_with_asymmetric_paths_are_taken_as_synchronised() -> None:
+    est = ClockOffsetEstimator()
+    # same clock, tiny poll (0.1 ms up), large reply (7 ms down): the raw estimate is
+    # -3.45 ms, within half the delay of zero, so no correction is applied
+    est.add(10.0, 10.0001, 10.0002, 10.0072)
+    assert est.delay == pytest.approx(0.0071)
+    assert est.offset == 0.0
+
+
+def test_an_offset_beyond_half_the_delay_is_still_corrected() -> None:
+    est = ClockOffsetEstimator()
+    est.add(10.0, 10.0101, 10.0102, 10.0003)  # clock 10 ms ahead, 0.1 ms each way
+    assert est.offset == pytest.approx(0.010)

@@ -12,6 +12,11 @@ class ClockOffsetEstimator:
     t4 (leader receive): offset = ((t2 - t1) + (t3 - t4)) / 2 with error at most half the
     round-trip delay (t4 - t1) - (t3 - t2). Of the last ``samples`` samples the one with
     the smallest delay is used: queueing inflates delay and skews offset together.
+
+    An estimate within half the delay of zero cannot be told apart from zero, and is
+    most often an artefact of asymmetric paths (a tiny poll, a large reply): then the
+    clocks are taken as synchronised (as NTP-disciplined ones are), which removes that
+    bias while a clock that is really off (by more than the bound) is still corrected.
     """
 
     def __init__(self, samples: int = 8) -> None:
@@ -32,7 +37,8 @@ class ClockOffsetEstimator:
     def offset(self) -> float:
         if not self._recent:
             return 0.0
-        return min(self._recent)[1]
+        delay, offset = min(self._recent)
+        return 0.0 if abs(offset) <= delay / 2.0 else offset
 
     @property
     def delay(self) -> float | None:
