@@ -138,12 +138,13 @@ def register(subparsers: Any) -> None:
     slotted = kinds.add_parser("slotted", help="Kadota et al.'s slotted model, against L_B")
     slotted.add_argument("--n", type=int, required=True, help="number of followers")
     slotted.add_argument("--policy", default="whittle", help=f"one of {', '.join(POLICIES)}")
-    slotted.add_argument("--seed", type=int, default=0)
+    slotted.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     slotted.add_argument("--weights", type=_range, default=(1.0, 5.0), metavar="LO:HI",
                          help="weights drawn from U[LO, HI] (default 1:5)")
     slotted.add_argument("--reliability", type=_range, default=(0.5, 1.0), metavar="LO:HI",
                          help="success probabilities from U[LO, HI] (default 0.5:1)")
-    slotted.add_argument("--slots", type=int, default=DEFAULT_SLOTS)
+    slotted.add_argument("--slots", type=int, default=DEFAULT_SLOTS,
+                         help=f"slots to simulate (default {DEFAULT_SLOTS})")
     slotted.add_argument("--json", action="store_true", help="print one JSON object")
     slotted.set_defaults(func=_slotted)
 
@@ -151,9 +152,10 @@ def register(subparsers: Any) -> None:
     wifi.add_argument("--n", type=int, required=True, help="number of followers (UAVs)")
     wifi.add_argument("--system", default="wiswarm", help=f"one of {', '.join(SYSTEMS)}")
     wifi.add_argument("--rate", type=float, help="udp/tcp frames per second (default 50)")
-    wifi.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES)
+    wifi.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
+                      help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
     wifi.add_argument("--duration", type=float, default=240.0, help="simulated seconds")
-    wifi.add_argument("--seed", type=int, default=0)
+    wifi.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     lo, hi = DEFAULT_RELIABILITY
     wifi.add_argument("--reliability", type=_range, default=DEFAULT_RELIABILITY,
                       metavar="LO:HI", help=f"per-attempt MAC success, U[LO, HI] ({lo}:{hi})")
@@ -171,11 +173,14 @@ def register(subparsers: Any) -> None:
                        help="numbers of UAVs (default 2,4,...,14)")
     sweep.add_argument("--rates", type=_numbers, default=PAPER_RATES,
                        help="the baselines' rate grid, fps (default the paper's)")
-    sweep.add_argument("--fixed-rate", type=float, default=50.0)
-    sweep.add_argument("--batches", type=int, default=4)
+    sweep.add_argument("--fixed-rate", type=float, default=50.0,
+                       help="the fixed-rate baselines' fps (default 50)")
+    sweep.add_argument("--batches", type=int, default=4, help="batches per point (default 4)")
     sweep.add_argument("--duration", type=float, default=240.0, help="seconds per batch")
-    sweep.add_argument("--seed", type=int, default=0)
-    sweep.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES)
-    sweep.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
+    sweep.add_argument("--seed", type=int, default=0, help="seed of the first batch")
+    sweep.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
+                       help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
+    sweep.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+                       help="parallel worker processes (default: one per core)")
     sweep.add_argument("--out", type=Path, help="output directory (runs/sweep-<timestamp>)")
     sweep.set_defaults(func=_sweep)
