@@ -1,0 +1,209 @@
+"""Polls per second: the leader's poll loop against a bare Zenoh ``get`` loop.
+
+For each N, one router and N follower processes (spawn) come up on loopback. Every
+follower serves two keys: a bare queryable answering with a fixed reply, and a
+``FollowerNode`` that offers a frame at each poll (``sample_on_poll``: a camera read at
+will, its capture cost left out), so each poll moves one whole fresh update, as the
+bare reply does, with the same bytes on the wire (``--camera HZ`` instead feeds each
+follower frames at that rate, as in the paper's runs: most polls then find nothing
+new, so (b) shows the real system rather than a like-for-like comparison). Rounds of
+(a) the bare loop (prepared queriers, round robin, one get in flight) and (b) the
+``LeaderNode`` alternate; the medians and their ratio (b)/(a) are printed, then the mean
+AoI of each follower in (b) next to the round-robin floor S (N/2 + 1), S = 1/(a).
+
+    .venv/bin/python benchmarks/bench_poll.py                 # N = 4 and 14, 50 kB
+    .venv/bin/python benchmarks/bench_poll.py -n 4 --seconds 2 --control-period 0
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing
+import os
+import statistics
+import threading
+import time
+from typing import Any
+
+import zenoh
+
+from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.core.wire import Poll, encode_poll
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
+from wiswarm_zenoh.transport.frames import SyntheticFrames
+from wiswarm_zenoh.transport.runners import (
+    ReadySignal,
+    StopSignal,
+    run_child,
+    run_router,
+    wait_until_stopped,
+)
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
+
+SWARM = "bench"
+BARE = "benchbare"
+READY_TIMEOUT = 30.0
+STATS_PERIOD = 0.25
+
+
+def bare_reply(follower: str, frame: bytes) -> bytes:
+    """What a FollowerNode answers to a poll when it has one fresh frame."""
+    core = Follower(follower, FollowerConfig())
+    core.offer(frame, time.time())
+    return core.on_poll(encode_poll(Poll(1, time.time(), None)), time.time(), time.time())
+
+
+def follower_process(spec: SessionSpec, follower: str, frame_bytes: int, camera: float | None,
+                     stop: StopSignal, ready: ReadySignal) -> None:
+    frame = bytes(frame_bytes)
+    reply = bare_reply(follower, frame)
+    key = f"wiswarm/{BARE}/{follower}/update"
+
+    def answer(query: zenoh.Query) -> None:
+        with query:
+            query.reply(key, reply)
+
+    with spec.open() as session:
+        bare = session.declare_queryable(key, zenoh.handlers.Callback(answer, indirect=False))
+        with FollowerNode(session, SWARM, follower,
+                          sample_on_poll=None if camera else lambda: frame) as node:
+            frames = SyntheticFrames(node.offer, frame_bytes, camera) if camera else None
+            if frames is not None:
+                frames.start()
+            ready.set()
+            wait_until_stopped(stop)
+            if frames is not None:
+                frames.stop()
+        bare.undeclare()
+
+
+def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
+               timeout: float) -> float:
+    """(a): polls/s of a round-robin get loop with nothing but Zenoh in it."""
+    queriers = [
+        session.declare_querier(
+            f"wiswarm/{BARE}/{f}/update", target=zenoh.QueryTarget.ALL,
+            consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout,
+        )
+        for f in followers
+    ]
+    poll = encode_poll(Poll(1, time.time(), None))
+    polls, size = 0, 0
+    start = time.perf_counter()
+    end = start + seconds
+    while time.perf_counter() < end:
+        for reply in queriers[polls % len(queriers)].get(payload=poll):
+            sample = reply.ok
+            if sample is not None:
+                size = len(sample.payload.to_bytes())
+        polls += 1
+    elapsed = time.perf_counter() - start
+    for querier in queriers:
+        querier.undeclare()
+    if size == 0:
+        raise RuntimeError("the bare loop got no reply")
+    return polls / elapsed
+
+
+def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
+                 control_period: float) -> tuple[float, list[dict[str, Any]]]:
+    """(b): polls/s of the LeaderNode, and its per-follower stats at the end."""
+    joined: list[str] = []
+    everyone = threading.Event()
+
+    def on_join(follower: str) -> None:
+        joined.append(follower)
+        if len(joined) == n:
+            everyone.set()
+
+    with LeaderNode(session, SWARM, config, on_join=on_join, control_period=control_period,
+                    stats_period=STATS_PERIOD) as node:
+        if not everyone.wait(READY_TIMEOUT):
+            raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
+        start, polls0 = time.perf_counter(), node.polls
+        time.sleep(seconds)
+        rate = (node.polls - polls0) / (time.perf_counter() - start)
+        time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
+        stats = list(node.latest)
+    return rate, stats
+
+
+def measure(n: int, args: argparse.Namespace) -> None:
+    ctx = multiprocessing.get_context("spawn")
+    port = free_tcp_port()
+    node_spec = SessionSpec.loopback(args.mode, connect_ports=[port])
+    jobs: list[tuple[Any, tuple[Any, ...]]] = [
+        (run_router, (SessionSpec.loopback("router", port),)),
+        *((follower_process, (node_spec, f"uav{i}", args.frame_bytes, args.camera))
+          for i in range(n)),
+    ]
+    procs = []
+    try:
+        for target, target_args in jobs:
+            ready = ctx.Event()
+            proc = ctx.Process(target=run_child, args=(target, target_args, ready))
+            proc.start()
+            procs.append(proc)
+            if not ready.wait(READY_TIMEOUT):
+                raise RuntimeError("a child process did not come up")
+        config = LeaderConfig(policy=args.policy, timeout=args.timeout)
+        with node_spec.open() as session:
+            followers = [f"uav{i}" for i in range(n)]
+            bare_round(session, followers, 0.5, args.timeout)  # warm the routes up
+            bare, leader, stats = [], [], []
+            for _ in range(args.rounds):
+                bare.append(bare_round(session, followers, args.seconds, args.timeout))
+                rate, stats = leader_round(session, n, args.seconds, config, args.control_period)
+                leader.append(rate)
+        report(n, args, bare, leader, stats)
+    finally:
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            proc.join(10)
+            if proc.is_alive():
+                proc.kill()
+
+
+def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[float],
+           stats: list[dict[str, Any]]) -> None:
+    a, b = statistics.median(bare), statistics.median(leader)
+    s = 1.0 / a
+    floor = s * (n / 2 + 1)
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    source = f"camera at {args.camera:g} Hz" if args.camera else "a fresh update every poll"
+    print(f"\nN = {n}, {args.frame_bytes} B updates ({source}), {args.mode} mode via a router, "
+          f"{args.rounds} rounds of {args.seconds:g} s, control period {args.control_period:g} s"
+          f" (load average {load} on {os.cpu_count()} CPUs)")
+    print(f"  (a) bare get loop   {a:8.0f} polls/s   (rounds: "
+          f"{', '.join(f'{x:.0f}' for x in bare)})   S = {s * 1e3:.3f} ms")
+    print(f"  (b) leader loop     {b:8.0f} polls/s   (rounds: "
+          f"{', '.join(f'{x:.0f}' for x in leader)})")
+    print(f"  ratio (b)/(a)       {b / a:8.2f}   target >= 0.80")
+    print(f"  mean AoI per follower, last (b) round ({args.policy}); "
+          f"round-robin floor S (N/2 + 1) = {floor * 1e3:.2f} ms")
+    for record in sorted(stats, key=lambda r: str(r["follower"])):
+        print(f"    {record['follower']:>6}  {float(record['mean_aoi_s']) * 1e3:7.2f} ms"
+              f"   p95 {float(record['p95_aoi_s']) * 1e3:7.2f} ms   polls {record['polls']}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-n", "--followers", type=int, nargs="+", default=[4, 14])
+    parser.add_argument("--frame-bytes", type=int, default=50176)
+    parser.add_argument("--seconds", type=float, default=3.0, help="length of each round")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--camera", type=float, metavar="HZ",
+                        help="followers make frames at this rate instead of one per poll")
+    parser.add_argument("--mode", choices=["peer", "client"], default="peer")
+    parser.add_argument("--policy", default="whittle")
+    parser.add_argument("--timeout", type=float, default=0.3)
+    parser.add_argument("--control-period", type=float, default=0.1,
+                        help="seconds between repeats of unchanged control (0: every poll)")
+    args = parser.parse_args()
+    for n in args.followers:
+        measure(n, args)
+
+
+if __name__ == "__main__":
+    main()

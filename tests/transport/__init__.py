@@ -1,0 +1,1 @@
+"""Tests of the Zenoh shell: real sessions on loopback, multicast scouting off."""

@@ -1,0 +1,101 @@
+"""What the transport tests share: a recorder of LeaderNode callbacks, loopback sessions."""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import zenoh
+
+from wiswarm_zenoh.core import Delivered
+from wiswarm_zenoh.transport import SessionSpec
+
+WAIT = 15.0  # seconds: generous, since the machine may be busy; met in well under 1 s
+
+
+@dataclass
+class Recorder:
+    """Everything a LeaderNode reports through its callbacks, waitable."""
+
+    deliveries: list[Delivered] = field(default_factory=list)
+    joins: list[str] = field(default_factory=list)
+    leaves: list[str] = field(default_factory=list)
+    cond: threading.Condition = field(default_factory=threading.Condition)
+
+    def on_delivery(self, event: Delivered) -> None:
+        with self.cond:
+            self.deliveries.append(event)
+            self.cond.notify_all()
+
+    def on_join(self, follower: str) -> None:
+        with self.cond:
+            self.joins.append(follower)
+            self.cond.notify_all()
+
+    def on_leave(self, follower: str) -> None:
+        with self.cond:
+            self.leaves.append(follower)
+            self.cond.notify_all()
+
+    def callbacks(self) -> dict[str, Callable[..., None]]:
+        return {"on_delivery": self.on_delivery, "on_join": self.on_join,
+                "on_leave": self.on_leave}
+
+    def count(self, follower: str) -> int:
+        with self.cond:
+            return sum(d.follower == follower for d in self.deliveries)
+
+    def wait(self, what: str, predicate: Callable[[Recorder], bool],
+             timeout: float = WAIT) -> None:
+        with self.cond:
+            assert self.cond.wait_for(lambda: predicate(self), timeout), f"timed out: {what}"
+
+
+class Sessions:
+    """Opens loopback sessions and closes them all at the end of the test."""
+
+    def __init__(self) -> None:
+        self.opened: list[zenoh.Session] = []
+
+    def open(self, spec: SessionSpec) -> zenoh.Session:
+        session = spec.open()
+        self.opened.append(session)
+        return session
+
+    def router(self, port: int) -> zenoh.Session:
+        return self.open(SessionSpec.loopback("router", port))
+
+    def node(self, port: int, mode: str = "peer") -> zenoh.Session:
+        return self.open(SessionSpec.loopback(mode, connect_ports=[port]))
+
+    def close_all(self) -> None:
+        for session in reversed(self.opened):
+            if not session.is_closed():
+                session.close()
+
+
+class Samples:
+    """A plain subscriber keeping every sample it gets, waitable (any tool could do this)."""
+
+    def __init__(self, session: zenoh.Session, key_expr: str) -> None:
+        self.samples: list[zenoh.Sample] = []
+        self.cond = threading.Condition()
+        self._subscriber = session.declare_subscriber(key_expr, self._on_sample)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        with self.cond:
+            self.samples.append(sample)
+            self.cond.notify_all()
+
+    def stats(self, key: str) -> list[dict[str, Any]]:
+        with self.cond:
+            return [json.loads(s.payload.to_bytes()) for s in self.samples
+                    if str(s.key_expr) == key]
+
+    def wait(self, what: str, predicate: Callable[[Samples], bool],
+             timeout: float = WAIT) -> None:
+        with self.cond:
+            assert self.cond.wait_for(lambda: predicate(self), timeout), f"timed out: {what}"

@@ -1,0 +1,136 @@
+"""``wiswarm router|leader|follower|demo``: bad input is one line and exit 2; the demo
+writes its files, and Ctrl-C leaves no process behind."""
+
+from __future__ import annotations
+
+import io
+import os
+import select
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from wiswarm_zenoh.cli import main as cli_main
+from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
+from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
+
+from .helpers import WAIT
+
+ENTRY = ("import sys, wiswarm_zenoh.cli.main as m; "
+         "m.SUBCOMMAND_MODULES = ('wiswarm_zenoh.cli.nodes',); sys.exit(m.main())")
+
+
+@pytest.fixture
+def wiswarm(monkeypatch: pytest.MonkeyPatch) -> object:
+    monkeypatch.setattr(cli_main, "SUBCOMMAND_MODULES", ("wiswarm_zenoh.cli.nodes",))
+    return cli_main.main
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["router", "-e", "nowhere"], "endpoint 'nowhere' must look like tcp/HOST:PORT"),
+    (["router", "--cfg", "transport"], "--cfg expects KEY:VALUE, got 'transport'"),
+    (["router", "--cfg", "no/such/key:1"], "--cfg no/such/key: unknown key"),
+    (["router", "--cfg", "mode:'tree'"], "unknown variant `tree`"),
+    (["router", "-c", "/no/such/file.json5"], "config file /no/such/file.json5: No such file"),
+    (["leader", "--alpha", "1.5"], "alpha must be in [0, 1], got 1.5"),
+    (["leader", "--swarm", "a/b"], "swarm name 'a/b' must not contain /"),
+    (["leader", "--control-period", "-1"], "--control-period must be >= 0"),
+    (["follower", "--id", "x*"], "follower id 'x*' must not contain *"),
+    (["follower", "--id", "control"], "follower id 'control' is reserved"),
+    (["follower", "--id", "a", "--frame-bytes", "8"], "--frame-bytes must be in [16,"),
+    (["follower", "--id", "a", "--fragment-size", "100"], "fragment_size must be >"),
+])
+def test_bad_flags_are_one_line_and_exit_2(
+    wiswarm: object, capsys: pytest.CaptureFixture[str], argv: list[str], message: str
+) -> None:
+    assert cli_main.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"wiswarm {argv[0]}: error: ")
+    assert message in err
+
+
+@pytest.mark.parametrize("argv", [["leader", "--policy", "best"], ["follower"],
+                                  ["swarm-demo", "--followers", "0"], ["leader", "-m", "router"]])
+def test_argparse_errors_exit_2(wiswarm: object, capsys: pytest.CaptureFixture[str],
+                                argv: list[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        cli_main.main(argv)
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_an_unreachable_router_is_a_usage_error(
+    wiswarm: object, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["leader", "-m", "client", "-e", f"tcp/127.0.0.1:{free_tcp_port()}",
+            "--no-multicast-scouting", "--duration", "1"]
+    assert cli_main.main(argv) == 2
+    assert "cannot open the Zenoh session: Unable to connect" in capsys.readouterr().err
+
+
+def test_the_demo_shows_the_table_and_writes_its_files(tmp_path: Path) -> None:
+    out = io.StringIO()
+    run_dir = run_demo(DemoOptions(followers=2, duration=3.0, out=str(tmp_path)), out)
+    text = out.getvalue()
+    assert "summary" in text and "uav1" in text and "uav2" in text
+    stats = (run_dir / "stats.csv").read_text().splitlines()
+    assert stats[0].startswith("time_s,follower,aoi_s,mean_aoi_s,p95_aoi_s,p_hat")
+    assert {line.split(",")[1] for line in stats[1:]} == {"uav1", "uav2"}
+    assert (run_dir / "aoi.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len((run_dir / "deliveries.csv").read_text().splitlines()) > 50
+
+
+def _children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                found.append(int(entry.name))
+    return found
+
+
+def _wait_gone(pid: int) -> bool:
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        return True
+    try:
+        return bool(select.select([fd], [], [], WAIT)[0])
+    finally:
+        os.close(fd)
+
+
+def test_ctrl_c_stops_the_demo_and_every_child(tmp_path: Path) -> None:
+    demo = subprocess.Popen(
+        [sys.executable, "-c", ENTRY, "swarm-demo", "--followers", "2", "--duration", "60",
+         "--out", str(tmp_path)],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    try:
+        assert demo.stdout is not None
+        for line in demo.stdout:  # the table is drawn once everyone is up
+            if line.startswith("WiSwarm demo:"):
+                break
+        children = _children(demo.pid)
+        assert len(children) >= 4  # router, leader, 2 followers
+        demo.send_signal(signal.SIGINT)
+        rest = demo.communicate(timeout=WAIT)[0]
+    finally:
+        demo.kill()
+    assert demo.returncode == 130
+    assert "interrupted: every process stopped" in rest
+    assert all(_wait_gone(pid) for pid in children)
+
+
+@pytest.mark.parametrize("mode", ["router", "peer", "client"])
+def test_the_shipped_zenoh_configs_load(mode: str) -> None:
+    path = Path(__file__).resolve().parents[2] / "configs" / f"{mode}.json5"
+    config = SessionSpec(config_file=str(path)).config()
+    assert config.get_json("mode") == f'"{mode}"'

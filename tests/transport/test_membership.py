@@ -1,0 +1,116 @@
+"""Discovery by liveliness: join, leave, rejoin; followers that die or hang; leader restart."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+
+import zenoh
+
+from wiswarm_zenoh.core import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
+from wiswarm_zenoh.transport.frames import SyntheticFrames
+from wiswarm_zenoh.transport.runners import FollowerOptions, run_child, run_follower
+
+from .helpers import WAIT, Recorder, Samples, Sessions
+
+SWARM = "m"
+
+
+def test_join_leave_and_rejoin_with_a_reset_sequence(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()) as leader:
+        first = sessions.node(port)
+        node = FollowerNode(first, SWARM, "uav1")
+        recorder.wait("join", lambda r: r.joins == ["uav1"])
+        for n in (1, 2):
+            node.offer(b"before %d" % n)
+            recorder.wait("delivery", lambda r, n=n: len(r.deliveries) == n)
+        first.close()  # the process "restarts": its token goes with its session
+        recorder.wait("leave", lambda r: r.leaves == ["uav1"])
+        assert leader.followers == []
+        node = FollowerNode(sessions.node(port), SWARM, "uav1")
+        recorder.wait("rejoin", lambda r: r.joins == ["uav1", "uav1"])
+        node.offer(b"after restart")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 3)
+        assert leader.followers == ["uav1"]
+    assert [d.update_seq for d in recorder.deliveries] == [1, 2, 1]
+    assert recorder.deliveries[-1].payload == b"after restart"
+
+
+def test_a_restarted_leader_finds_the_followers_and_their_queued_update(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    node = FollowerNode(sessions.node(port), SWARM, "uav1")
+    with LeaderNode(sessions.node(port), SWARM, on_delivery=recorder.on_delivery):
+        node.offer(b"one")
+        recorder.wait("first leader", lambda r: len(r.deliveries) == 1)
+    node.offer(b"two")  # nobody polls: it waits in the queue
+    again = Recorder()
+    with LeaderNode(sessions.node(port), SWARM, **again.callbacks()):
+        again.wait("second leader", lambda r: len(r.deliveries) == 1)
+    assert again.joins == ["uav1"]
+    assert (again.deliveries[0].payload, again.deliveries[0].update_seq) == (b"two", 2)
+
+
+def test_a_follower_killed_mid_update_is_timed_out_then_forgotten(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    steady = FollowerNode(sessions.node(port), SWARM, "steady")
+    frames = SyntheticFrames(steady.offer, size=2000, rate=100.0)
+    ctx = multiprocessing.get_context("spawn")
+    ready = ctx.Event()
+    options = FollowerOptions(SWARM, "victim", FollowerConfig(fragment_size=4096))
+    spec = SessionSpec.loopback("peer", connect_ports=[port])
+    victim = ctx.Process(target=run_child, args=(run_follower, (spec, options), ready))
+    victim.start()
+    try:
+        assert ready.wait(WAIT)
+        with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()) as leader:
+            frames.start()
+            # 50 kB in 4 kB fragments: 13 polls per frame, so it is nearly always mid-update.
+            recorder.wait("victim delivers", lambda r: r.count("victim") >= 2)
+            assert victim.pid is not None
+            os.kill(victim.pid, signal.SIGKILL)
+            recorder.wait("victim forgotten", lambda r: "victim" in r.leaves)
+            after = recorder.count("steady")
+            recorder.wait("steady still served", lambda r: r.count("steady") >= after + 10)
+            assert leader.followers == ["steady"]
+    finally:
+        frames.stop()
+        victim.kill()
+        victim.join(WAIT)
+
+
+def test_a_hung_follower_costs_one_timeout_per_poll_and_its_p_hat_falls(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    held: list[zenoh.Query] = []  # never answered nor dropped: Zenoh's timeout ends them
+    hung = sessions.node(port)
+    hung_queryable = hung.declare_queryable(f"wiswarm/{SWARM}/hung/update", held.append)
+    hung_token = hung.liveliness().declare_token(f"wiswarm/{SWARM}/members/hung")
+    steady = FollowerNode(sessions.node(port), SWARM, "steady")
+    frames = SyntheticFrames(steady.offer, size=2000, rate=100.0)
+    watch = Samples(sessions.node(port), f"wiswarm/{SWARM}/hung/stats")
+    key = f"wiswarm/{SWARM}/hung/stats"
+    config = LeaderConfig(timeout=0.05, window=10)
+    with LeaderNode(sessions.node(port), SWARM, config, stats_period=0.1,
+                    **recorder.callbacks()):
+        frames.start()
+        try:
+            watch.wait("p_hat falls", lambda w: any(
+                float(s["p_hat"]) < 0.5 and int(s["timeouts"]) >= 5 for s in w.stats(key)))
+            # Its age keeps growing, so the policy comes back to it more and more often
+            # (until its token goes, after Zenoh's lease); the others are still served.
+            recorder.wait("steady served", lambda r: r.count("steady") >= 5)
+        finally:
+            frames.stop()
+    last = watch.stats(key)[-1]
+    assert int(last["deliveries"]) == 0
+    assert int(last["polls"]) - 1 <= int(last["timeouts"]) <= int(last["polls"])
+    for query in held:
+        query.drop()
+    hung_queryable.undeclare()
+    hung_token.undeclare()

@@ -1,0 +1,87 @@
+"""What other tools see (stats JSON, fresh updates), and the ways nodes can be wired up:
+through a router, peer to peer, and across a router restart."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import zenoh
+
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
+
+from .helpers import Recorder, Samples, Sessions
+
+SWARM = "s"
+FOLLOWER_FIELDS = {"follower", "aoi_s", "mean_aoi_s", "p95_aoi_s", "p_hat", "weight", "polls",
+                   "deliveries", "timeouts", "errors"}
+LEADER_FIELDS = {"followers", "polls_per_s", "mean_aoi_s", "policy", "uptime_s"}
+
+
+def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    follower = FollowerNode(sessions.node(port), SWARM, "uav1")
+    watch = Samples(sessions.node(port), f"wiswarm/{SWARM}/**")
+    update = os.urandom(3000)
+    with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()):
+        recorder.wait("join", lambda r: bool(r.joins))
+        fresh_key = f"wiswarm/{SWARM}/uav1/fresh"
+        stats_key = f"wiswarm/{SWARM}/uav1/stats"
+        follower.offer(update)
+        watch.wait("stats and fresh", lambda w: any(
+            str(s.key_expr) == fresh_key for s in w.samples
+        ) and any(int(r["deliveries"]) == 1 for r in w.stats(stats_key))
+          and bool(w.stats(f"wiswarm/{SWARM}/leader/stats")))
+    fresh = next(s for s in watch.samples if str(s.key_expr) == fresh_key)
+    assert fresh.payload.to_bytes() == update
+    assert fresh.attachment is not None
+    meta = json.loads(fresh.attachment.to_bytes())
+    assert meta["follower"] == "uav1" and meta["update_seq"] == 1
+    assert meta["delivered_at"] >= meta["generated_at"]
+    stats = next(s for s in watch.samples if str(s.key_expr) == stats_key)
+    assert str(stats.encoding) == "application/json"
+    record = watch.stats(stats_key)[-1]
+    assert record.keys() >= FOLLOWER_FIELDS
+    assert record["follower"] == "uav1" and 0.0 < record["p_hat"] <= 1.0
+    assert record["polls"] >= record["deliveries"] == 1
+    leader = watch.stats(f"wiswarm/{SWARM}/leader/stats")[-1]
+    assert leader.keys() >= LEADER_FIELDS
+    assert leader["followers"] == ["uav1"] and leader["policy"] == "whittle"
+
+
+def _delivers(leader_session: zenoh.Session, follower: FollowerNode) -> None:
+    recorder = Recorder()
+    with LeaderNode(leader_session, SWARM, **recorder.callbacks()):
+        recorder.wait("join", lambda r: bool(r.joins))
+        follower.offer(b"frame")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 1)
+
+
+def test_clients_through_a_router_in_the_middle(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    follower = FollowerNode(sessions.node(port, "client"), SWARM, "uav1")
+    _delivers(sessions.node(port, "client"), follower)
+
+
+def test_peer_to_peer_without_a_router(sessions: Sessions, port: int) -> None:
+    follower = FollowerNode(sessions.open(SessionSpec.loopback("peer", listen_port=port)),
+                            SWARM, "uav1")
+    _delivers(sessions.open(SessionSpec.loopback("peer", connect_ports=[port])), follower)
+
+
+def test_nodes_survive_a_router_restart(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    follower = FollowerNode(sessions.node(port, "client"), SWARM, "uav1")
+    with LeaderNode(sessions.node(port, "client"), SWARM, **recorder.callbacks()):
+        follower.offer(b"before")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 1)
+        router.close()
+        recorder.wait("router gone: the follower looks gone", lambda r: r.leaves == ["uav1"])
+        sessions.router(port)  # the same endpoint again
+        recorder.wait("reconnected", lambda r: r.joins == ["uav1", "uav1"])
+        follower.offer(b"after")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 2)
+    assert recorder.deliveries[-1].payload == b"after"

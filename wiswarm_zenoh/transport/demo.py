@@ -1,0 +1,216 @@
+"""``wiswarm demo``: a router, a leader and synthetic followers as separate processes.
+
+The parent only watches: it subscribes to the stats JSON like any other Zenoh tool,
+shows the live table, and afterwards writes ``stats.csv`` and ``aoi.png`` (from the
+leader's record of every delivery) under ``runs/<timestamp>/``. Children ignore Ctrl-C
+(the parent stops each with SIGTERM) and stop by themselves if the parent dies, so no
+process outlives the demo.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import multiprocessing
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.context import SpawnContext, SpawnProcess
+from pathlib import Path
+from types import FrameType, TracebackType
+from typing import Any, TextIO
+
+import zenoh
+
+from wiswarm_zenoh.core import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_RATE
+from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.report import (
+    LiveTable,
+    PollRates,
+    format_table,
+    plot_aoi,
+    read_deliveries,
+    write_stats_csv,
+)
+from wiswarm_zenoh.transport.runners import (
+    FollowerOptions,
+    LeaderOptions,
+    run_child,
+    run_follower,
+    run_leader,
+    run_router,
+)
+from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
+
+log = logging.getLogger(__name__)
+
+READY_TIMEOUT = 30.0  # seconds for a child to open its session
+STOP_TIMEOUT = 5.0  # seconds for a child to stop before it is terminated
+REFRESH = 0.25  # seconds between redraws of the live table
+
+
+@dataclass(frozen=True)
+class DemoOptions:
+    followers: int = 6
+    duration: float = 20.0
+    policy: str = "whittle"
+    frame_bytes: int = FRAME_BYTES
+    frame_rate: float = FRAME_RATE
+    out: str = "runs"
+    swarm: str = "demo"
+
+
+class Children:
+    """Started children, all stopped on exit: asked (SIGTERM) first, then killed."""
+
+    def __init__(self, ctx: SpawnContext) -> None:
+        self._ctx = ctx
+        self._procs: list[SpawnProcess] = []
+
+    def start(self, name: str, target: Callable[..., object], *args: Any) -> None:
+        """Start ``target(*args, stop, ready)`` and wait until it says it is ready."""
+        ready = self._ctx.Event()
+        proc = self._ctx.Process(target=run_child, args=(target, args, ready), name=name)
+        proc.start()
+        self._procs.append(proc)
+        deadline = time.monotonic() + READY_TIMEOUT
+        while not ready.wait(0.1):
+            if not proc.is_alive() or time.monotonic() > deadline:
+                raise RuntimeError(f"{name} did not start (exit code {proc.exitcode})")
+
+    def __enter__(self) -> Children:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        for proc in self._procs:
+            proc.terminate()  # SIGTERM: the child's request to stop
+        for proc in reversed(self._procs):
+            proc.join(STOP_TIMEOUT)
+            if proc.is_alive():
+                log.warning("%s did not stop: killing it", proc.name)
+                proc.kill()
+                proc.join()
+            elif proc.exitcode != 0:
+                log.warning("%s exited with code %s", proc.name, proc.exitcode)
+
+
+class StatsCollector:
+    """Keeps the latest stats JSON of every follower and of the leader, and every sample."""
+
+    def __init__(self, session: zenoh.Session, keys: SwarmKeys, start: float) -> None:
+        self._keys = keys
+        self._start = start
+        self._lock = threading.Lock()
+        self.latest: dict[str, dict[str, Any]] = {}
+        self.leader: dict[str, Any] = {}
+        self.rows: list[dict[str, Any]] = []
+        self.rates = PollRates()
+        self._subscriber = session.declare_subscriber(keys.all_stats, self._on_stats)
+
+    def _on_stats(self, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        try:
+            record = json.loads(sample.payload.to_bytes())
+        except ValueError:
+            log.warning("stats on %s are not JSON", key)
+            return
+        now = time.time()
+        with self._lock:
+            if key == self._keys.leader_stats:
+                self.leader = record
+                return
+            follower = self._keys.follower_of(key, "stats")
+            if follower is None or not isinstance(record, dict):
+                return
+            self.latest[follower] = record
+            self.rows.append({"time_s": round(now - self._start, 3), **record})
+            self.rates.observe(follower, float(record.get("polls", 0)), now)
+
+    def table(self, title: str) -> list[str]:
+        with self._lock:
+            leader = self.leader
+            header = (f"{title} | leader {float(leader.get('polls_per_s', 0.0)):.0f} polls/s, "
+                      f"mean AoI {float(leader.get('mean_aoi_s', 0.0)) * 1e3:.2f} ms")
+            return format_table(list(self.latest.values()), dict(self.rates.rates), header)
+
+    def close(self) -> None:
+        undeclare(self._subscriber)
+
+
+def _run_dir(out: str) -> Path:
+    base = Path(out) / time.strftime("%Y%m%d-%H%M%S")
+    path, n = base, 1
+    while path.exists():
+        n += 1
+        path = base.with_name(f"{base.name}-{n}")
+    path.mkdir(parents=True)
+    return path
+
+
+def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+def run_demo(options: DemoOptions, stream: TextIO = sys.stdout) -> Path:
+    """Run the demo; returns the run directory. Ctrl-C (or SIGTERM) ends it early."""
+    run_dir = _run_dir(options.out)
+    port = free_tcp_port()
+    node_spec = SessionSpec.loopback("peer", connect_ports=[port])
+    keys = SwarmKeys(options.swarm)
+    record = run_dir / "deliveries.csv"
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    table = LiveTable(stream)
+    title = f"WiSwarm demo: {options.followers} followers, {options.policy}"
+    collector: StatsCollector | None = None
+    interrupted = False
+    try:
+        with Children(multiprocessing.get_context("spawn")) as children:
+            stream.write(f"starting a router on 127.0.0.1:{port}, a leader and "
+                         f"{options.followers} followers...\n")
+            stream.flush()
+            children.start("router", run_router, SessionSpec.loopback("router", port))
+            for i in range(1, options.followers + 1):
+                follower = FollowerOptions(options.swarm, f"uav{i}", FollowerConfig(),
+                                           options.frame_bytes, options.frame_rate)
+                children.start(f"follower uav{i}", run_follower, node_spec, follower)
+            leader = LeaderOptions(options.swarm, LeaderConfig(policy=options.policy),
+                                   record=str(record))
+            with node_spec.open() as session:
+                collector = StatsCollector(session, keys, time.time())
+                children.start("leader", run_leader, node_spec, leader)
+                start = time.monotonic()
+                while (elapsed := time.monotonic() - start) < options.duration:
+                    table.show(collector.table(f"{title}, {elapsed:4.1f}/{options.duration:g} s"))
+                    time.sleep(min(REFRESH, max(0.0, options.duration - elapsed)))
+                collector.close()
+    except KeyboardInterrupt:
+        interrupted = True
+        stream.write("\ninterrupted: every process stopped\n")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    _write_outputs(run_dir, collector, record, title, stream)
+    if interrupted:
+        raise KeyboardInterrupt
+    return run_dir
+
+
+def _write_outputs(run_dir: Path, collector: StatsCollector | None, record: Path, title: str,
+                   stream: TextIO) -> None:
+    if collector is not None:
+        stream.write("\n".join(["", "summary", *collector.table(title)]) + "\n")
+        write_stats_csv(run_dir / "stats.csv", collector.rows)
+        stream.write(f"stats:      {run_dir / 'stats.csv'} ({len(collector.rows)} rows)\n")
+    if record.exists():
+        deliveries = read_deliveries(record)
+        if deliveries:
+            times = [d for rows in deliveries.values() for d, _ in rows]
+            plot_aoi(run_dir / "aoi.png", deliveries, min(times), max(times))
+            stream.write(f"AoI plot:   {run_dir / 'aoi.png'}\n")
+        stream.write(f"deliveries: {record} ({sum(map(len, deliveries.values()))})\n")
+    stream.flush()

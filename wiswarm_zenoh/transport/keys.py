@@ -1,0 +1,96 @@
+"""The key expressions of DESIGN.md section 3, built in one place from checked names."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+ROOT = "wiswarm"
+RESERVED = frozenset({"leader", "control", "members"})
+_FORBIDDEN = frozenset("/*$?#")
+
+
+def check_name(name: str, what: str) -> str:
+    """Return ``name`` if it is a single key chunk; raise ValueError naming ``what``."""
+    if not isinstance(name, str) or not name:
+        raise ValueError(f"{what} must be a non-empty string")
+    bad = sorted(_FORBIDDEN.intersection(name))
+    if bad:
+        raise ValueError(f"{what} {name!r} must not contain {' '.join(bad)}")
+    if name != name.strip() or any(c.isspace() for c in name):
+        raise ValueError(f"{what} {name!r} must not contain spaces")
+    return name
+
+
+def check_follower(name: str) -> str:
+    """A follower id: a key chunk that is not one of the swarm's own words."""
+    check_name(name, "follower id")
+    if name in RESERVED:
+        raise ValueError(f"follower id {name!r} is reserved: "
+                         f"{', '.join(sorted(RESERVED))} are not follower names")
+    return name
+
+
+@dataclass(frozen=True)
+class SwarmKeys:
+    """Every key of one swarm: ``wiswarm/<swarm>/...``."""
+
+    swarm: str
+
+    def __post_init__(self) -> None:
+        check_name(self.swarm, "swarm name")
+
+    @property
+    def prefix(self) -> str:
+        return f"{ROOT}/{self.swarm}"
+
+    @property
+    def everything(self) -> str:
+        return f"{self.prefix}/**"
+
+    @property
+    def control(self) -> str:
+        return f"{self.prefix}/control"
+
+    @property
+    def members(self) -> str:
+        return f"{self.prefix}/members/*"
+
+    @property
+    def leader_stats(self) -> str:
+        return f"{self.prefix}/leader/stats"
+
+    @property
+    def all_stats(self) -> str:
+        return f"{self.prefix}/*/stats"
+
+    @property
+    def all_fresh(self) -> str:
+        return f"{self.prefix}/*/fresh"
+
+    def member(self, follower: str) -> str:
+        return f"{self.prefix}/members/{check_follower(follower)}"
+
+    def update(self, follower: str) -> str:
+        return f"{self.prefix}/{check_follower(follower)}/update"
+
+    def stats(self, follower: str) -> str:
+        return f"{self.prefix}/{check_follower(follower)}/stats"
+
+    def fresh(self, follower: str) -> str:
+        return f"{self.prefix}/{check_follower(follower)}/fresh"
+
+    def follower_of(self, key: str, leaf: str) -> str | None:
+        """The follower id in ``wiswarm/<swarm>/<id>/<leaf>`` (or ``members/<id>`` when
+        ``leaf`` is "members"); None if ``key`` is anything else."""
+        parts = key.split("/")
+        if len(parts) != 4 or parts[0] != ROOT or parts[1] != self.swarm:
+            return None
+        name = parts[3] if leaf == "members" and parts[2] == "members" else None
+        if leaf != "members" and parts[3] == leaf:
+            name = parts[2]
+        if name is None:
+            return None
+        try:
+            return check_follower(name)
+        except ValueError:
+            return None

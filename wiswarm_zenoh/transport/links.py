@@ -1,0 +1,51 @@
+"""What the leader declares per follower: a querier for polls, publishers for stats and
+fresh updates. Declared once at join, so a poll costs no key or route set-up."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import zenoh
+
+from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.keys import SwarmKeys
+
+
+@dataclass
+class FollowerLink:
+    follower: str
+    key: str
+    querier: zenoh.Querier
+    stats: zenoh.Publisher
+    fresh: zenoh.Publisher
+    listening: bool = False  # some subscriber matches ``fresh``
+    _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
+
+    @classmethod
+    def open(cls, session: zenoh.Session, keys: SwarmKeys, follower: str,
+             timeout: float) -> FollowerLink:
+        key = keys.update(follower)
+        link = cls(
+            follower=follower,
+            key=key,
+            # ALL: a rogue queryable on the same key cannot hide the real follower.
+            # NONE: every reply is kept, not only the latest per key.
+            querier=session.declare_querier(
+                key, target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout,
+            ),
+            stats=session.declare_publisher(
+                keys.stats(follower), encoding=zenoh.Encoding.APPLICATION_JSON
+            ),
+            fresh=session.declare_publisher(keys.fresh(follower)),
+        )
+        link._listener = link.fresh.declare_matching_listener(link._on_matching)
+        return link
+
+    def _on_matching(self, status: zenoh.MatchingStatus) -> None:
+        self.listening = status.matching
+
+    def close(self) -> None:
+        if self._listener is not None:
+            undeclare(self._listener)
+        undeclare(self.fresh, self.stats, self.querier)

@@ -1,0 +1,166 @@
+"""Router, leader and follower as whole programs: what ``wiswarm router|leader|follower``
+run in the foreground and what the demo, the benchmark and tests start as ``spawn``
+children (through ``run_child``). Each one returns when told to stop, when its duration
+is over, on Ctrl-C, or when the process that started it is gone (nothing is orphaned).
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import multiprocessing
+import signal
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport.follower_node import FollowerNode
+from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_RATE, SyntheticFrames
+from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
+from wiswarm_zenoh.transport.zenoh_config import SessionSpec
+
+log = logging.getLogger(__name__)
+
+SUPERVISION_PERIOD = 0.25  # seconds between checks of the deadline and the parent
+
+
+class StopSignal(Protocol):
+    """``threading.Event`` or ``multiprocessing.Event``."""
+
+    def is_set(self) -> bool: ...
+    def set(self) -> None: ...
+    def wait(self, timeout: float | None = None) -> bool: ...
+
+
+class ReadySignal(Protocol):
+    """Set once the session is open and the node declared (an Event, or a message)."""
+
+    def set(self) -> None: ...
+
+
+def wait_until_stopped(stop: StopSignal, duration: float | None = None,
+                       tick: Callable[[], None] | None = None) -> None:
+    """Block until ``stop``, the end of ``duration``, Ctrl-C or the parent's death;
+    ``tick`` runs every SUPERVISION_PERIOD meanwhile (a live display)."""
+    deadline = None if duration is None else time.monotonic() + duration
+    parent = multiprocessing.parent_process()
+    try:
+        while True:
+            left = SUPERVISION_PERIOD
+            if deadline is not None:
+                left = min(left, deadline - time.monotonic())
+            if left <= 0 or stop.wait(left):
+                return
+            if parent is not None and not parent.is_alive():
+                log.warning("parent process is gone: stopping")
+                return
+            if tick is not None:
+                tick()
+    except KeyboardInterrupt:
+        log.info("interrupted: stopping")
+
+
+def run_child(target: Callable[..., object], args: tuple[Any, ...],
+              ready: ReadySignal) -> None:
+    """Entry point of a ``spawn`` child: runs ``target(*args, stop, ready)`` until SIGTERM.
+
+    Children stop on SIGTERM (``Process.terminate()``) rather than on a shared
+    ``multiprocessing.Event``: such an event is left locked for good if a process is
+    killed while waiting on it. Ctrl-C reaches the whole process group, so children
+    ignore it and let their parent decide.
+    """
+    stop = threading.Event()
+    signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    target(*args, stop, ready)
+
+
+def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = None,
+               duration: float | None = None) -> None:
+    """A Zenoh router (the session is opened in router mode) until stopped."""
+    with spec.open() as session:
+        log.info("router %s up, listening on %s", session.zid(), ", ".join(spec.listen) or
+                 "Zenoh's default (tcp/[::]:7447)")
+        if ready is not None:
+            ready.set()
+        wait_until_stopped(stop, duration)
+
+
+@dataclass(frozen=True)
+class FollowerOptions:
+    swarm: str
+    follower_id: str
+    config: FollowerConfig = field(default_factory=FollowerConfig)
+    frame_bytes: int = FRAME_BYTES
+    frame_rate: float = FRAME_RATE
+    duration: float | None = None
+
+
+def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
+                 ready: ReadySignal | None = None) -> None:
+    """A follower sending synthetic frames until stopped."""
+    with spec.open() as session, FollowerNode(
+        session, options.swarm, options.follower_id, options.config
+    ) as node:
+        frames = SyntheticFrames(node.offer, options.frame_bytes, options.frame_rate)
+        frames.start()
+        if ready is not None:
+            ready.set()
+        try:
+            wait_until_stopped(stop, options.duration)
+        finally:
+            frames.stop()
+        log.info("follower %s: %d frames offered, %d polls answered",
+                 options.follower_id, frames.frames, node.polls)
+
+
+class DeliveryRecord:
+    """Every delivery as a CSV row (follower, update_seq, generated_at, delivered_at,
+    bytes; leader clock): the exact AoI sawtooth, for plots."""
+
+    FIELDS = ("follower", "update_seq", "generated_at", "delivered_at", "bytes")
+
+    def __init__(self, path: str) -> None:
+        self._file = open(path, "w", newline="")  # noqa: SIM115 - closed by close()
+        self._writer = csv.writer(self._file)
+        self._writer.writerow(self.FIELDS)
+
+    def __call__(self, event: Delivered) -> None:
+        self._writer.writerow((event.follower, event.update_seq, f"{event.generated_at:.6f}",
+                               f"{event.generated_at + event.age:.6f}", len(event.payload)))
+
+    def close(self) -> None:
+        self._file.close()
+
+
+@dataclass(frozen=True)
+class LeaderOptions:
+    swarm: str
+    config: LeaderConfig = field(default_factory=LeaderConfig)
+    duration: float | None = None
+    control_period: float = CONTROL_PERIOD
+    record: str | None = None  # CSV file of every delivery
+
+
+def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
+               ready: ReadySignal | None = None,
+               show: Callable[[LeaderNode], None] | None = None) -> LeaderNode:
+    """The leader until stopped; ``show`` is called with the node a few times a second.
+    Returns the (closed) node, whose last stats remain readable."""
+    record = DeliveryRecord(options.record) if options.record else None
+    try:
+        with spec.open() as session, LeaderNode(
+            session, options.swarm, options.config, on_delivery=record,
+            control_period=options.control_period,
+        ) as node:
+            if ready is not None:
+                ready.set()
+            wait_until_stopped(stop, options.duration, None if show is None else
+                               lambda: show(node))
+    finally:
+        if record is not None:
+            record.close()
+    return node

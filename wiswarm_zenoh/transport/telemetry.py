@@ -1,0 +1,54 @@
+"""The stats JSON of DESIGN.md section 3, as published on the ``.../stats`` keys."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from wiswarm_zenoh.core import Delivered, FollowerStats
+
+
+def follower_stats(stats: FollowerStats, transport_errors: int) -> dict[str, float | int | str]:
+    """One follower's stats; ``errors`` adds the replies the transport already refused
+    (error replies, oversized payloads) to those the core rejected."""
+    record = stats.as_dict()
+    record["errors"] = stats.errors + transport_errors
+    return record
+
+
+@dataclass(frozen=True)
+class LeaderSummary:
+    """``wiswarm/<swarm>/leader/stats``: the swarm at a glance."""
+
+    followers: list[str]
+    polls_per_s: float
+    mean_aoi_s: float
+    policy: str
+    uptime_s: float
+
+    @classmethod
+    def of(cls, records: Sequence[dict[str, float | int | str]], polls_per_s: float,
+           policy: str, uptime_s: float) -> LeaderSummary:
+        means = [float(r["mean_aoi_s"]) for r in records]
+        return cls(
+            followers=[str(r["follower"]) for r in records], polls_per_s=polls_per_s,
+            mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
+            uptime_s=uptime_s,
+        )
+
+    def as_dict(self) -> dict[str, object]:
+        return {"followers": self.followers, "polls_per_s": self.polls_per_s,
+                "mean_aoi_s": self.mean_aoi_s, "policy": self.policy, "uptime_s": self.uptime_s}
+
+
+def to_json(record: dict[str, object] | dict[str, float | int | str]) -> bytes:
+    return json.dumps(record, separators=(",", ":")).encode()
+
+
+def fresh_attachment(event: Delivered) -> bytes:
+    """Sent with a ``fresh`` re-publication: when the update was made and delivered
+    (leader clock), so a subscriber can draw the update's age without the follower."""
+    return to_json({"follower": event.follower, "update_seq": event.update_seq,
+                    "generated_at": event.generated_at,
+                    "delivered_at": event.generated_at + event.age})
