@@ -16,7 +16,7 @@ test: $(STAMP)
 	$(PY) -m pytest
 
 demo: $(STAMP)
-	$(PY) -m wiswarm_zenoh.memlink
+	$(VENV)/bin/wiswarm demo
 
 bench: $(STAMP)
 	$(PY) benchmarks/bench_policies.py

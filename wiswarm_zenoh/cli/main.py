@@ -16,7 +16,11 @@ from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 
 # Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
 # ``func`` (args -> exit code) on the parsers it adds.
-SUBCOMMAND_MODULES: tuple[str, ...] = ("wiswarm_zenoh.cli.sim",)
+SUBCOMMAND_MODULES: tuple[str, ...] = (
+    "wiswarm_zenoh.cli.nodes",
+    "wiswarm_zenoh.cli.sim",
+    "apps.tracking.cli",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,0 +1,227 @@
+"""The tracking demo: an embedded router, N UAV processes (spawn) and the leader here.
+
+Order of events: the router comes up; the UAVs build the seeded world and open their
+sessions, then report ready (started one by one by the transport's `Children`, which
+also stops them all on the way out); this process opens the leader's session, its
+vision thread and transport (polling or push); the world epoch is set a warm-up ahead and
+every UAV is told to go, through its own pipe. During the warm-up the cars stand still
+and each UAV settles over its car; the measurement window is [epoch, epoch + duration].
+At its end the UAVs hand back their measurements and end. Children ignore Ctrl-C: it
+ends the window early here, the UAVs are told to stop, and the run is reported as far
+as it went.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import multiprocessing
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+from dataclasses import dataclass, field
+from typing import Literal
+
+import zenoh
+
+from apps.tracking.board import TrackingBoard, table_lines
+from apps.tracking.geometry import CameraModel
+from apps.tracking.leader_app import ControlSink, VisionLoop, VisionStats
+from apps.tracking.push import PushLeader
+from apps.tracking.reception import AoISummary, DeliveryRow, Reception
+from apps.tracking.tracker import TrackerConfig
+from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
+from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
+from apps.tracking.world import MOTIONS, Motion, WorldConfig
+from wiswarm_zenoh.core import LeaderConfig
+from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.transport import LeaderNode, SessionSpec
+from wiswarm_zenoh.transport.demo import Children
+from wiswarm_zenoh.transport.report import LiveTable
+from wiswarm_zenoh.transport.runners import run_router, wait_until_stopped
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
+
+log = logging.getLogger(__name__)
+
+SWARM = "tracking"
+RESULT_TIMEOUT_S = 15.0
+DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
+FRAME_SIZES = (224, 160)  # stationary runs / flights
+
+
+@dataclass(frozen=True)
+class DemoOptions:
+    """A demo run; every field is checked on construction (ValueError names it)."""
+
+    uavs: int = 4
+    duration_s: float = 30.0
+    seed: int = 0
+    system: System = "wiswarm"
+    rate_hz: float | None = None
+    frame_px: int = 224
+    vehicle: VehicleKind = "virtual"
+    motion: Motion = "random_walk"
+    mode: Literal["peer", "client"] = "peer"
+    policy: str = "whittle"
+    warmup_s: float = 2.0
+    live: bool = False
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
+            raise ValueError(f"uavs must be in [1, 50], got {self.uavs!r}")
+        if not (math.isfinite(self.duration_s) and 1.0 <= self.duration_s <= 86400):
+            raise ValueError(f"duration must be in [1, 86400] s, got {self.duration_s!r}")
+        if self.rate_hz is not None and not (math.isfinite(self.rate_hz)
+                                             and 0 < self.rate_hz <= 1000):
+            raise ValueError(f"rate must be in (0, 1000] frames/s, got {self.rate_hz!r}")
+        if self.system not in SYSTEMS:
+            raise ValueError(f"system must be one of {SYSTEMS}, got {self.system!r}")
+        if self.frame_px not in FRAME_SIZES:
+            raise ValueError(f"frame size must be one of {FRAME_SIZES}, got {self.frame_px!r}")
+        if self.vehicle not in VEHICLE_KINDS:
+            raise ValueError(f"vehicle must be one of {VEHICLE_KINDS}, got {self.vehicle!r}")
+        if self.motion not in MOTIONS:
+            raise ValueError(f"motion must be one of {MOTIONS}, got {self.motion!r}")
+        if self.mode not in ("peer", "client"):
+            raise ValueError(f"mode must be peer or client, got {self.mode!r}")
+        if self.policy not in POLICIES:
+            raise ValueError(f"policy must be one of {sorted(POLICIES)}, got {self.policy!r}")
+        if not (math.isfinite(self.warmup_s) and 0.5 <= self.warmup_s <= 60):
+            raise ValueError(f"warm-up must be in [0.5, 60] s, got {self.warmup_s!r}")
+        self.world_config()  # the world must fit the UAVs' cars
+
+    @property
+    def rate(self) -> float:
+        return self.rate_hz if self.rate_hz is not None else DEFAULT_RATE[self.system]
+
+    @property
+    def camera(self) -> CameraModel:
+        return CameraModel(width=self.frame_px, height=self.frame_px)
+
+    @property
+    def uav_ids(self) -> list[str]:
+        return [f"uav{i}" for i in range(self.uavs)]
+
+    def world_config(self) -> WorldConfig:
+        """One car per UAV, driving for the warm-up and the window (and a margin)."""
+        return WorldConfig(n_cars=self.uavs, motion=self.motion, seed=self.seed,
+                           duration_s=self.duration_s + 60.0)
+
+    def uav_options(self, index: int) -> UavOptions:
+        return UavOptions(
+            swarm=SWARM, uav=self.uav_ids[index], car=index, world=self.world_config(),
+            system=self.system, rate_hz=self.rate, duration_s=self.duration_s,
+            camera=self.camera, vehicle=self.vehicle, altitude_m=self.tracker.altitude_m,
+        )
+
+
+@dataclass(frozen=True)
+class DemoRun:
+    """Everything measured: the leader's AoI and vision, the UAVs' own measurements."""
+
+    options: DemoOptions
+    epoch: float
+    measured_s: float
+    aoi: dict[str, AoISummary]
+    vision: dict[str, VisionStats]
+    vision_busy_s: float
+    deliveries: list[DeliveryRow]
+    uavs: dict[str, UavResult]
+    polls: int
+
+
+@dataclass
+class _Leader:
+    sink: ControlSink
+    weights: Callable[[], dict[str, float]]
+    polls: Callable[[], int]
+
+
+@contextmanager
+def _open_leader(session: zenoh.Session, options: DemoOptions,
+                 reception: Reception) -> Iterator[_Leader]:
+    """The leader's transport: a LeaderNode polling, or the push baseline's subscriber."""
+    if options.system == "wiswarm":
+        config = LeaderConfig(policy=options.policy)
+        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered) as node:
+            yield _Leader(
+                node, lambda: {str(r["follower"]): float(r["weight"]) for r in node.latest},
+                lambda: node.polls,
+            )
+    else:
+        leader = PushLeader(session, SWARM, reception)
+        try:
+            yield _Leader(leader, leader.weights, lambda: 0)
+        finally:
+            leader.close()
+
+
+def run(options: DemoOptions) -> DemoRun:
+    """Run the demo and return its measurements (no files are written here)."""
+    world = options.world_config()
+    port = free_tcp_port()
+    spec = SessionSpec.loopback(options.mode, connect_ports=[port])
+    ctx = multiprocessing.get_context("spawn")
+    with ExitStack() as stack:
+        children = stack.enter_context(Children(ctx))
+        children.start("router", run_router, SessionSpec.loopback("router", port))
+        links = []
+        for index, uav in enumerate(options.uav_ids):
+            mine, theirs = ctx.Pipe()
+            links.append(UavLink(mine))
+            children.start(uav, run_uav, spec, options.uav_options(index), UavLink(theirs))
+
+        session = stack.enter_context(spec.open())
+        vision = VisionLoop({uav: i for i, uav in enumerate(options.uav_ids)},
+                            world.arena, options.tracker, options.camera)
+        reception = Reception(options.uav_ids, vision)
+        leader = stack.enter_context(_open_leader(session, options, reception))
+        vision.start(leader.sink)
+        stack.callback(vision.stop)
+        board = TrackingBoard(session, SWARM)
+        stack.callback(board.close)
+
+        epoch = time.time() + options.warmup_s
+        end = epoch + options.duration_s
+        reception.open_window(epoch, end)
+        for link in links:
+            link.go(epoch)
+        table = LiveTable() if options.live else None
+
+        def tick() -> None:
+            if table is None:
+                return
+            now = time.time()
+            title = (f"{options.system}: {options.uavs} UAVs, "
+                     + (f"warm-up {epoch - now:4.1f} s" if now < epoch
+                        else f"t = {now - epoch:5.1f} / {options.duration_s:g} s"))
+            table.show([title, *table_lines(options.uav_ids, now - epoch,
+                                            reception.summary(now), vision.stats(),
+                                            board.latest(), leader.weights())])
+
+        wait_until_stopped(threading.Event(), end - time.time(), tick)
+        measured = min(max(time.time(), epoch), end) - epoch
+        aoi, stats = reception.summary(epoch + measured), vision.stats()
+        polls = leader.polls()
+        if measured < options.duration_s:  # cut short (Ctrl-C): the UAVs stop too
+            for link in links:
+                link.stop()
+        uav_results = _collect(links)
+    return DemoRun(options, epoch, measured, aoi, stats, vision.busy_s, reception.rows(),
+                   uav_results, polls)
+
+
+def _collect(links: list[UavLink]) -> dict[str, UavResult]:
+    """The UAVs' results, as many as arrive in time (a missing one is logged)."""
+    collected: dict[str, UavResult] = {}
+    deadline = time.monotonic() + RESULT_TIMEOUT_S
+    for link in links:
+        result = link.result(max(0.0, deadline - time.monotonic()))
+        if result is not None:
+            collected[result.uav] = result
+    if len(collected) < len(links):
+        log.warning("only %d of %d UAVs handed back their measurements",
+                    len(collected), len(links))
+    return collected

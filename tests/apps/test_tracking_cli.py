@@ -1,0 +1,63 @@
+"""`wiswarm demo` flags: bad values are one clear UsageError; a short run writes its files."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from apps.tracking.cli import add_demo_arguments, options_from, run_demo
+from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+
+
+def parse(*argv: str) -> argparse.Namespace:
+    parser = OneLineParser(prog="wiswarm demo")
+    add_demo_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def test_defaults_are_the_paper_setup() -> None:
+    options = options_from(parse())
+    assert (options.uavs, options.duration_s, options.frame_px, options.rate) == (4, 30, 224, 100)
+    assert options_from(parse("--system", "push")).rate == 50  # the paper's fixed rate
+
+
+@pytest.mark.parametrize(("argv", "words"), [
+    (("--uavs", "0"), "uavs must be in [1, 50]"),
+    (("--duration", "nan"), "duration must be in"),
+    (("--rate", "-5"), "rate must be in (0, 1000]"),
+    (("--warmup", "0.1"), "warm-up must be in"),
+])
+def test_bad_values_are_usage_errors(argv: tuple[str, ...], words: str) -> None:
+    with pytest.raises(UsageError, match=words.replace("[", r"\[").replace("(", r"\(")):
+        options_from(parse(*argv))
+
+
+def test_bad_choices_exit_with_code_2(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        parse("--system", "udp")
+    assert exit_info.value.code == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_out_must_be_a_directory(tmp_path: Path) -> None:
+    target = tmp_path / "file"
+    target.write_text("")
+    with pytest.raises(UsageError, match="not a directory"):
+        run_demo(parse("--out", str(target)))
+
+
+def test_a_short_run_prints_a_summary_and_writes_the_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "run"
+    code = run_demo(parse("--uavs", "1", "--duration", "1", "--warmup", "1", "--no-live",
+                          "--no-gif", "--frame-size", "160", "--out", str(out)))
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "uav0: AoI mean" in printed and "car in view" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["frame_px"] == 160 and set(summary["per_uav"]) == {"uav0"}
+    assert not (out / "world.gif").exists() and (out / "trajectories.png").exists()

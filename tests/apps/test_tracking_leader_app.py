@@ -1,0 +1,113 @@
+"""The leader's vision thread: freshest frame per UAV, round robin, plans in the UAV's
+clock; and the AoI bookkeeping of frames arriving at the leader."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Sequence
+
+import numpy as np
+import pytest
+
+from apps.tracking.frames import Frame, encode_frame
+from apps.tracking.geometry import CameraModel, Pose
+from apps.tracking.leader_app import Arrival, VisionLoop
+from apps.tracking.reception import Reception
+from apps.tracking.render import Renderer
+from apps.tracking.report import aoi_series
+from apps.tracking.world import World, WorldConfig
+
+WORLD = World(WorldConfig(n_cars=2, seed=11, duration_s=60))
+RENDERER = Renderer(WORLD)
+CAMERA = CameraModel()
+
+
+class RecordingSink:
+    """The ControlSink the vision thread talks to, keeping what it was told."""
+
+    def __init__(self, expected: int) -> None:
+        self.plans: list[tuple[str, list[tuple[float, ...]]]] = []
+        self.urgencies: list[tuple[str, float]] = []
+        self._expected = expected
+        self.done = threading.Event()
+
+    def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
+        self.plans.append((follower, [tuple(w) for w in waypoints]))
+
+    def observe_urgency(self, follower: str, v: float) -> float:
+        self.urgencies.append((follower, v))
+        if len(self.urgencies) >= self._expected:
+            self.done.set()
+        return v
+
+
+def frame_over_car(car: int, t: float) -> bytes:
+    x, y = WORLD.car_position(car, t)
+    pose = Pose(x + 0.2, y - 0.1, 2.0, 0.3)
+    return encode_frame(Frame(t, pose, CAMERA, RENDERER.frame(pose, CAMERA, t)))
+
+
+def test_only_the_freshest_frame_of_each_uav_is_processed_round_robin() -> None:
+    vision = VisionLoop({"a": 0, "b": 1}, WORLD.arena, camera=CAMERA)
+    for t in (1.0, 1.1, 1.2):
+        vision.submit("a", Arrival(frame_over_car(0, t), t, t + 0.01))
+    vision.submit("b", Arrival(frame_over_car(1, 1.0), 1.0, 1.01))
+    sink = RecordingSink(expected=2)
+    vision.start(sink)
+    try:
+        assert sink.done.wait(10.0)
+    finally:
+        vision.stop()
+    stats = vision.stats()
+    assert (stats["a"].arrivals, stats["a"].processed, stats["a"].superseded) == (3, 1, 2)
+    assert (stats["b"].processed, stats["b"].detections) == (1, 1)
+    assert sorted(uav for uav, _ in sink.plans) == ["a", "b"]
+    plan_a = stats["a"].plan
+    assert plan_a is not None and plan_a.last_seen_t == pytest.approx(1.2)  # the freshest
+    true_x, true_y = WORLD.car_position(0, 1.2)
+    assert plan_a.car_xy == pytest.approx((true_x, true_y), abs=0.05)
+
+
+def test_waypoints_are_stamped_in_the_uav_clock() -> None:
+    """The leader's clock runs 100 s ahead of the UAV's: the plan still starts at the
+    UAV's present, not the leader's."""
+    offset, processing_at = 100.0, 1.0 + 100.0 + 0.02
+    vision = VisionLoop({"a": 0}, WORLD.arena, camera=CAMERA, clock=lambda: processing_at)
+    vision.submit("a", Arrival(frame_over_car(0, 1.0), 1.0 + offset, 1.01 + offset))
+    sink = RecordingSink(expected=1)
+    vision.start(sink)
+    try:
+        assert sink.done.wait(10.0)
+    finally:
+        vision.stop()
+    waypoints = sink.plans[0][1]
+    assert waypoints[0][0] == pytest.approx(1.02)
+    assert all(WORLD.arena.contains(w[1], w[2]) for w in waypoints)
+
+
+def test_frames_from_a_uav_without_a_car_are_refused() -> None:
+    vision = VisionLoop({"a": 0}, WORLD.arena)
+    vision.submit("stranger", Arrival(b"x", 1.0, 1.0))
+    assert vision.bad_input.counts["stranger"] == 1
+    assert set(vision.stats()) == {"a"}
+
+
+def test_aoi_counts_only_the_window_and_matches_the_sampled_sawtooth() -> None:
+    vision = VisionLoop({"a": 0}, WORLD.arena)  # not started: frames just wait
+    reception = Reception(["a"], vision)
+    reception.receive("a", b"early", 9.0, 9.5)  # before the window: not counted
+    reception.open_window(10.0, 12.0)
+    rng = np.random.default_rng(3)
+    t = 10.0
+    while t < 12.0:
+        generated = t - float(rng.uniform(0.0, 0.004))  # steps are longer: always fresher
+        reception.receive("a", b"f", generated, t)
+        t += float(rng.uniform(0.005, 0.05))
+    reception.receive("a", b"late", 12.2, 12.3)  # after the window: not counted
+    summary = reception.summary(12.0)["a"]
+    times, ages = aoi_series(reception.rows(), "a", 10.0, 12.0, step=1e-4)
+    assert summary.mean_aoi_s == pytest.approx(float(ages.mean()), abs=5e-4)
+    assert summary.p95_aoi_s == pytest.approx(float(np.percentile(ages, 95)), abs=1e-3)
+    assert summary.deliveries == len(reception.rows())
+    assert vision.stats()["a"].arrivals == summary.deliveries  # counted in the window only
+    assert len(times) == len(ages) == 20000
