@@ -29,7 +29,8 @@ def test_defaults_are_valid_and_match_the_design() -> None:
     ("timeout", 0.0, "> 0"),
     ("timeout", math.inf, "> 0"),
     ("prior_p", 1.1, "[0, 1]"),
-    ("p_floor", 0.0, "(0, 1]"),
+    ("probe_interval", 0.0, "> 0 seconds"),
+    ("probe_max", 0.1, ">= probe_interval"),
     ("initial_weight", 0.0, "> 0"),
     ("weight_floor", -1.0, ">= 0"),
     ("max_fragments", 0, ">= 1"),
@@ -62,7 +63,8 @@ def test_follower_config_names_the_bad_field(field: str, value: Any, allowed: st
 
 def test_boundary_values_are_accepted() -> None:
     FollowerConfig(fragment_size=FRAGMENT_HEADER_BYTES + 1, abandon_after=0.0, rate_hz=1e-3)
-    LeaderConfig(window=1, alpha=0.0, prior_p=0.0, p_floor=1.0, weight_floor=0.0)
+    LeaderConfig(window=1, alpha=0.0, prior_p=0.0, probe_interval=1.0, probe_max=1.0,
+                 weight_floor=0.0)
     LeaderConfig(alpha=1.0)
 
 

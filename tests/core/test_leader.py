@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Mapping
+
 import pytest
 
 from wiswarm_zenoh.core import (
@@ -298,21 +301,56 @@ def test_weight_floor_keeps_a_follower_without_urgency_in_the_schedule() -> None
     assert poll(leader, 10.5).follower == "b"
 
 
-def test_silent_follower_is_still_probed_thanks_to_p_floor() -> None:
-    leader, followers = _setup("a", "dead", config=LeaderConfig(window=5, timeout=0.1))
-    t, probes = 0.0, 0
-    for _ in range(400):
+def _run_with_a_dead_follower(
+    leader: Leader, followers: Mapping[str, Follower], until: float, start: float = 0.0
+) -> tuple[list[float], float]:
+    """Poll from ``start`` until ``until``; "dead" never answers. Returns the times it
+    was polled, and the time reached."""
+    t, dead_polls = start, []
+    while t < until:
         request = poll(leader, t)
         if request.follower == "dead":
-            probes += 1
+            dead_polls.append(t)
             t = request.deadline
             leader.on_timer(t)
         else:
             followers["a"].offer(b"x", t)
             answer(leader, followers, request, t)
             t += 0.002
+    return dead_polls, t
+
+
+def test_silent_follower_is_probed_with_back_off_and_cannot_starve_the_others() -> None:
+    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=4.0)
+    leader, followers = _setup("a", "dead", config=config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 30.0)
     assert leader.stats("dead", t).p_hat == 0.0
-    assert probes >= 5
+    # 5 polls to fall silent, then probes 0.5, 1, 2, 4, 4, 4... s apart
+    probes = dead_polls[5:]
+    gaps = [round(b - a - 0.1, 6) for a, b in itertools.pairwise(probes)]
+    assert gaps[:4] == pytest.approx([1.0, 2.0, 4.0, 4.0], abs=0.01)
+    assert 8 <= len(dead_polls) <= 14
+    # the healthy follower is served all the time in between: its age stays small
+    assert leader.stats("a", t).mean_aoi_s < 0.05
+
+
+def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
+    config = LeaderConfig(window=2, timeout=0.1, probe_interval=0.5)
+    leader, followers = _setup("a", "dead", config=config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 0.5)
+    assert len(dead_polls) == 2 and leader.stats("dead", t).p_hat == 0.0
+    probe_due = dead_polls[-1] + 0.1 + 0.5
+    quiet, t = _run_with_a_dead_follower(leader, followers, probe_due - 0.01, start=t)
+    assert quiet == []
+    while (request := poll(leader, t)).follower != "dead":
+        followers["a"].offer(b"x", t)
+        answer(leader, followers, request, t)
+        t += 0.002
+    assert probe_due <= t < probe_due + 0.01
+    followers["dead"].offer(b"back", t)
+    answer(leader, followers, request, t)
+    assert leader.stats("dead", t + 0.01).p_hat == 0.5
+    assert leader.stats("dead", t + 0.01).deliveries == 1
 
 
 def test_control_is_broadcast_with_every_poll() -> None:

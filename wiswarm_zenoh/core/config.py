@@ -63,16 +63,21 @@ class LeaderConfig:
     """How the leader schedules polls and estimates its followers (paper, Section II-D).
 
     ``prior_p`` stands in for the polls not yet made while fewer than ``window`` polls
-    were sent to a follower; ``p_floor`` keeps a silent follower's index above zero so
-    it is still probed now and then and can recover; ``weight_floor`` does the same for
-    a follower whose urgency fell to zero (a stopped car must still be seen to start).
+    were sent to a follower. A follower none of whose last ``window`` polls was answered
+    (p_hat = 0: dead, hung, or only garbage) leaves the policy's schedule and is probed
+    alone, first after ``probe_interval`` seconds, then at doubling intervals up to
+    ``probe_max``: it costs at most one timeout per probe and cannot starve the others,
+    and it rejoins the schedule as soon as a probe is answered. ``weight_floor`` keeps a
+    follower whose urgency fell to zero in the schedule (a stopped car must still be
+    seen to start).
     """
 
     policy: str = "whittle"
     timeout: float = 0.3
     window: int = 20
     prior_p: float = 1.0
-    p_floor: float = 0.05
+    probe_interval: float = 0.5
+    probe_max: float = 8.0
     alpha: float = 0.8
     initial_weight: float = 1.0
     weight_floor: float = 0.1
@@ -90,7 +95,14 @@ class LeaderConfig:
         )
         _require(self.window >= 1, "window", "an integer >= 1", self.window)
         _require(0.0 <= self.prior_p <= 1.0, "prior_p", "in [0, 1]", self.prior_p)
-        _require(0.0 < self.p_floor <= 1.0, "p_floor", "in (0, 1]", self.p_floor)
+        _require(
+            math.isfinite(self.probe_interval) and self.probe_interval > 0,
+            "probe_interval", "> 0 seconds", self.probe_interval,
+        )
+        _require(
+            math.isfinite(self.probe_max) and self.probe_max >= self.probe_interval,
+            "probe_max", f">= probe_interval ({self.probe_interval}) seconds", self.probe_max,
+        )
         _require(0.0 <= self.alpha <= 1.0, "alpha", "in [0, 1]", self.alpha)
         _require(
             math.isfinite(self.initial_weight) and self.initial_weight > 0,

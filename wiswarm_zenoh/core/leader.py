@@ -121,10 +121,7 @@ class Leader:
         if self._in_flight is not None or not self.table.ids:
             return None
         table, cfg = self.table, self.config
-        ages = np.maximum(now - table.tau, 0.0) / self.slot
-        w = np.maximum(table.w, cfg.weight_floor)
-        index = self.policy.choose(w, np.maximum(table.p, cfg.p_floor), ages)
-        follower = table.ids[index]
+        follower = table.ids[self._choose(now)]
         peer = table.peers[follower]
         self._poll_seq += 1
         self._control_seq += 1
@@ -137,6 +134,21 @@ class Leader:
             self._packed_control = pack_entries(self._waypoints)
         control = encode_control_packed(self._control_seq, now, self._packed_control)
         return PollRequest(follower, self._poll_seq, payload, control, deadline)
+
+    def _choose(self, now: float) -> int:
+        """The policy's pick among followers that answer; a silent one only when its
+        probe is due (or when every follower is silent)."""
+        table = self.table
+        ages = np.maximum(now - table.tau, 0.0) / self.slot
+        w = np.maximum(table.w, self.config.weight_floor)
+        silent = table.p <= 0.0
+        if not silent.any():
+            return self.policy.choose(w, table.p, ages)
+        due = int(np.argmin(table.probe_at))
+        if table.probe_at[due] <= now or silent.all():
+            return due
+        live = np.flatnonzero(~silent)
+        return int(live[self.policy.choose(w[live], table.p[live], ages[live])])
 
     def next_timer(self) -> float | None:
         return None if self._in_flight is None else self._in_flight.deadline
@@ -160,7 +172,9 @@ class Leader:
     def _complete(self, flight: _InFlight, answered: bool, now: float) -> None:
         self._in_flight = None
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * max(now - flight.sent_at, 1e-6)
-        self.table.peers[flight.follower].reliability.record(answered)
+        cfg = self.config
+        peer = self.table.peers[flight.follower]
+        peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
         self.table.sync(flight.follower)
 
     def on_reply(self, follower: str, data: bytes, now: float) -> list[Event]:

@@ -52,6 +52,8 @@ class Peer:
     reassembler: Reassembler
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
+    probe_at: float = float("-inf")  # when a silent follower may be probed next
+    probe_gap: float = 0.0  # the current back-off between probes (0: not silent)
     want: Want = "next"
     polls: int = 0
     timeouts: int = 0
@@ -67,6 +69,19 @@ class Peer:
             clock=ClockOffsetEstimator(config.clock_samples),
             reassembler=Reassembler(config.max_fragments, config.max_update_bytes),
         )
+
+    @property
+    def silent(self) -> bool:
+        return self.reliability.value <= 0.0
+
+    def record_poll(self, answered: bool, now: float, interval: float, longest: float) -> None:
+        """Count a poll's outcome; a silent follower's next probe backs off exponentially."""
+        self.reliability.record(answered)
+        if not self.silent:
+            self.probe_gap, self.probe_at = 0.0, float("-inf")
+            return
+        self.probe_gap = interval if self.probe_gap == 0.0 else min(2 * self.probe_gap, longest)
+        self.probe_at = now + self.probe_gap
 
     @property
     def policy_tau(self) -> float:
@@ -92,9 +107,10 @@ class Peer:
 
 
 class PeerTable:
-    """Followers in join order, with the arrays (w, p, tau) the policy reads.
+    """Followers in join order, with the arrays (w, p, tau, probe_at) the leader reads.
 
-    ``tau`` is each follower's ``policy_tau``: the scheduler's view of its freshness.
+    ``tau`` is each follower's ``policy_tau``: the scheduler's view of its freshness;
+    ``probe_at`` is when a silent follower is due for a probe (+inf if not silent).
     """
 
     def __init__(self) -> None:
@@ -104,6 +120,7 @@ class PeerTable:
         self.w: FloatArray = np.zeros(0)
         self.p: FloatArray = np.zeros(0)
         self.tau: FloatArray = np.zeros(0)
+        self.probe_at: FloatArray = np.zeros(0)
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -115,17 +132,24 @@ class PeerTable:
         self.w = np.append(self.w, peer.weight.value)
         self.p = np.append(self.p, peer.reliability.value)
         self.tau = np.append(self.tau, peer.policy_tau)
+        self.probe_at = np.append(self.probe_at, _probe_at(peer))
 
     def remove(self, follower: str) -> None:
         i = self._index[follower]
         del self.ids[i], self.peers[follower]
         self._index = {fid: j for j, fid in enumerate(self.ids)}
-        self.w, self.p, self.tau = (np.delete(a, i) for a in (self.w, self.p, self.tau))
+        self.w, self.p, self.tau, self.probe_at = (
+            np.delete(a, i) for a in (self.w, self.p, self.tau, self.probe_at)
+        )
 
     def sync(self, follower: str) -> None:
         """Copy one follower's current estimates into the policy arrays."""
         i = self._index[follower]
         peer = self.peers[follower]
-        self.w[i], self.p[i], self.tau[i] = (
-            peer.weight.value, peer.reliability.value, peer.policy_tau
+        self.w[i], self.p[i], self.tau[i], self.probe_at[i] = (
+            peer.weight.value, peer.reliability.value, peer.policy_tau, _probe_at(peer)
         )
+
+
+def _probe_at(peer: Peer) -> float:
+    return peer.probe_at if peer.silent else float("inf")
