@@ -1,7 +1,7 @@
 """The tracking demo: an embedded router, N UAV processes (spawn) and the leader here.
 
 Order of events: the router comes up; the UAVs build the seeded world and open their
-sessions, then report ready (started one by one by the transport's `Children`, which
+sessions, then report ready (started together by the transport's `Children`, which
 also stops them all on the way out); this process opens the leader's session, its
 vision thread and transport (polling or push); the world epoch is set a warm-up ahead and
 every UAV is told to go, through its own pipe. During the warm-up the cars stand still
@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
+from multiprocessing import connection
 from typing import Literal
 
 import zenoh
@@ -46,6 +47,7 @@ log = logging.getLogger(__name__)
 
 SWARM = "tracking"
 RESULT_TIMEOUT_S = 15.0
+CHECK_PERIOD = 0.25  # seconds between checks, while waiting for results, that UAVs live
 DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
 FRAME_SIZES = (224, 160)  # stationary runs / flights
 
@@ -167,11 +169,13 @@ def run(options: DemoOptions) -> DemoRun:
     with ExitStack() as stack:
         children = stack.enter_context(Children(ctx))
         children.start("router", run_router, SessionSpec.loopback("router", port))
-        links = []
+        links: dict[str, UavLink] = {}
         for index, uav in enumerate(options.uav_ids):
             mine, theirs = ctx.Pipe()
-            links.append(UavLink(mine))
-            children.start(uav, run_uav, spec, options.uav_options(index), UavLink(theirs))
+            links[uav] = UavLink(mine)
+            children.start(uav, run_uav, spec, options.uav_options(index), UavLink(theirs),
+                           wait=False)
+        children.wait_ready()
 
         session = stack.enter_context(spec.open())
         vision = VisionLoop({uav: i for i, uav in enumerate(options.uav_ids)},
@@ -186,7 +190,7 @@ def run(options: DemoOptions) -> DemoRun:
         epoch = time.time() + options.warmup_s
         end = epoch + options.duration_s
         reception.open_window(epoch, end)
-        for link in links:
+        for link in links.values():
             link.go(epoch)
         table = LiveTable() if options.live else None
 
@@ -206,21 +210,32 @@ def run(options: DemoOptions) -> DemoRun:
         aoi, stats = reception.summary(epoch + measured), vision.stats()
         polls = leader.polls()
         if measured < options.duration_s:  # cut short (Ctrl-C): the UAVs stop too
-            for link in links:
+            for link in links.values():
                 link.stop()
-        uav_results = _collect(links)
+        uav_results = _collect(links, children)
     return DemoRun(options, epoch, measured, aoi, stats, vision.busy_s, reception.rows(),
                    uav_results, polls)
 
 
-def _collect(links: list[UavLink]) -> dict[str, UavResult]:
-    """The UAVs' results, as many as arrive in time (a missing one is logged)."""
+def _collect(links: dict[str, UavLink], children: Children) -> dict[str, UavResult]:
+    """The UAVs' results, as many as arrive in time; a UAV whose process has ended
+    without one is not waited for (a missing one is logged)."""
     collected: dict[str, UavResult] = {}
+    waiting = dict(links)
     deadline = time.monotonic() + RESULT_TIMEOUT_S
-    for link in links:
-        result = link.result(max(0.0, deadline - time.monotonic()))
-        if result is not None:
-            collected[result.uav] = result
+    while waiting:
+        for uav, link in list(waiting.items()):
+            running = children.alive(uav)  # asked first: a result sent just before exit is read
+            result = link.result(0.0)
+            if result is not None:
+                collected[uav] = result
+            elif running:
+                continue
+            del waiting[uav]
+        left = deadline - time.monotonic()
+        if not waiting or left <= 0:
+            break
+        connection.wait([link.fileno() for link in waiting.values()], min(left, CHECK_PERIOD))
     if len(collected) < len(links):
         log.warning("only %d of %d UAVs handed back their measurements",
                     len(collected), len(links))

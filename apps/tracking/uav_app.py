@@ -19,7 +19,6 @@ import json
 import logging
 import math
 import multiprocessing
-import signal
 import time
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -33,20 +32,21 @@ import zenoh
 from apps.tracking.frames import encode_frame
 from apps.tracking.geometry import CameraModel, Pose
 from apps.tracking.metrics import UavMetrics
-from apps.tracking.push import ControlListener, PushSender
+from apps.tracking.push import PushSender
 from apps.tracking.render import Renderer
-from apps.tracking.ticker import Ticker
 from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
 from apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh.core import FollowerConfig, Waypoint
 from wiswarm_zenoh.transport import FollowerNode, SessionSpec, SwarmKeys
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.control import ControlListener
 from wiswarm_zenoh.transport.runners import (
     SUPERVISION_PERIOD,
     ReadySignal,
     StopSignal,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport.ticker import Ticker
 
 log = logging.getLogger(__name__)
 
@@ -148,6 +148,10 @@ class UavLink:
 
     def send_result(self, result: UavResult) -> None:
         self._connection.send(result)
+
+    def fileno(self) -> int:
+        """For ``multiprocessing.connection.wait``: the demo waits on all links at once."""
+        return self._connection.fileno()
 
     def result(self, timeout: float) -> UavResult | None:
         if not self._connection.poll(timeout):
@@ -284,7 +288,4 @@ def run_uav(spec: SessionSpec, options: UavOptions, link: UavLink, stop: StopSig
         finally:
             runtime.close()
     link.send_result(runtime.result())
-    # Finishing anyway: a SIGTERM now (the demo closing its children) would only cut the
-    # interpreter's shutdown short and show as a crash. SIG_IGN survives finalisation.
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
     log.info("%s: %d frames taken", options.uav, runtime.frames)

@@ -123,3 +123,30 @@ def test_a_follower_of_another_swarm_is_not_polled(
         assert leader.followers == ["uav1"]
     assert stranger.polls == 0
     assert recorder.joins == ["uav1"]
+
+
+def test_a_slow_second_queryable_neither_holds_up_polling_nor_goes_uncounted(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    """The poll is over at the follower's valid reply; the get stays open aside for the
+    slow one, whose late junk is still counted against the key."""
+    slow_s = 0.2
+    answered: list[float] = []
+
+    def slow(query: zenoh.Query) -> None:
+        with query:
+            time.sleep(slow_s)  # the scenario: a responder much slower than the follower
+            query.reply(query.key_expr, b"junk")
+            answered.append(time.monotonic())
+
+    follower = FollowerNode(sessions.node(port), SWARM, "uav1", sample_on_poll=lambda: b"f")
+    held = sessions.node(port).declare_queryable(f"wiswarm/{SWARM}/uav1/update", slow)
+    watch = Samples(sessions.node(port), f"wiswarm/{SWARM}/uav1/stats")
+    with LeaderNode(sessions.node(port), SWARM, stats_period=0.1, **recorder.callbacks()):
+        recorder.wait("deliveries", lambda r: r.count("uav1") >= 10)
+        # Waiting for each get to close would allow one delivery per slow answer.
+        assert len(answered) <= 2
+        watch.wait("late junk counted", lambda w: any(
+            int(s["errors"]) >= 1 for s in w.stats(f"wiswarm/{SWARM}/uav1/stats")))
+    assert follower.polls >= 10
+    del held

@@ -11,6 +11,7 @@ whatever the run's length, in memory that grows with the spread of ages, not wit
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 
 import numpy as np
 import numpy.typing as npt
@@ -20,17 +21,14 @@ FloatArray = npt.NDArray[np.float64]
 SMALLEST_AGE = 1e-5  # seconds; bin 0 holds [0, SMALLEST_AGE)
 BIN_RATIO = 1.005  # consecutive bin edges differ by 0.5 %
 _LOG_RATIO = math.log(BIN_RATIO)
+_EMPTY = (0.0, 0.0, 0.0, 0.0)
 
 
 def bin_of(age: float) -> int:
-    """Bin k >= 1 holds [upper_edge(k - 1), upper_edge(k))."""
+    """Bin k >= 1 holds [SMALLEST_AGE * BIN_RATIO**(k - 1), SMALLEST_AGE * BIN_RATIO**k)."""
     if age < SMALLEST_AGE:
         return 0
     return 1 + int(math.log(age / SMALLEST_AGE) / _LOG_RATIO)
-
-
-def upper_edge(k: int) -> float:
-    return SMALLEST_AGE * BIN_RATIO**k
 
 
 class AgeHistogram:
@@ -51,21 +49,25 @@ class AgeHistogram:
 
     def add(self, start_age: float, length: float) -> None:
         if length > 0:
-            self._put(self._bins, start_age, start_age + length)
+            AgeHistogram._put(self._bins, start_age, start_age + length)
 
     def percentile(self, q: float, open_start: float, open_length: float) -> float:
         """The q-quantile of age over time, including a still-open segment."""
-        bins = {k: list(v) for k, v in self._bins.items()}
+        bins = self._bins
+        open_bins: dict[int, list[float]] = {}
         if open_length > 0:
-            self._put(bins, open_start, open_start + open_length)
-        if not bins:
+            self._put(open_bins, open_start, open_start + open_length)
+        if not bins and not open_bins:
             return open_start
-        keys = sorted(bins)
-        acc = np.array([bins[k] for k in keys], dtype=np.float64)
+        keys = sorted(bins.keys() | open_bins.keys())
+        acc = np.array([bins.get(k, _EMPTY) for k in keys], dtype=np.float64)
+        for k, row in open_bins.items():
+            acc[bisect_left(keys, k)] += row
         cum = np.cumsum(acc, axis=0)
         prev = np.vstack([np.zeros(4), cum[:-1]])
-        upper = np.array([upper_edge(k) for k in keys])
-        lower = np.array([0.0 if k == 0 else upper_edge(k - 1) for k in keys])
+        k_arr = np.array(keys, dtype=np.float64)
+        upper = SMALLEST_AGE * BIN_RATIO**k_arr
+        lower = np.where(k_arr == 0, 0.0, SMALLEST_AGE * BIN_RATIO ** (k_arr - 1))
 
         def below(x: FloatArray, c: FloatArray) -> FloatArray:
             result: FloatArray = (x * c[:, 0] - c[:, 1]) - (x * c[:, 2] - c[:, 3])

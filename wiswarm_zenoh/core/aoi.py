@@ -39,18 +39,17 @@ class AoITracker:
         if timestamp <= self.newest:
             return False
         self.newest = timestamp
-        self._close_segment(now)
-        self.tau = max(self.tau, min(timestamp, now))
-        self.deliveries += 1
-        return True
-
-    def _close_segment(self, now: float) -> None:
-        length = max(0.0, now - self._last_event)
-        a0 = self._last_event - self.tau
+        # close the sawtooth segment that ends now
+        last = self._last_event
+        length = max(0.0, now - last)
+        a0 = last - self.tau
         self._histogram.add(a0, length)
         self._area += length * (a0 + length / 2.0)
         self._peak = max(self._peak, a0 + length)
-        self._last_event = max(now, self._last_event)
+        self._last_event = max(now, last)
+        self.tau = max(self.tau, min(timestamp, now))
+        self.deliveries += 1
+        return True
 
     def mean(self, now: float) -> float:
         """Time-average age over [start, now]."""

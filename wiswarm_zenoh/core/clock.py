@@ -23,22 +23,19 @@ class ClockOffsetEstimator:
         if samples < 1:
             raise ValueError(f"samples must be >= 1, got {samples}")
         self._recent: deque[tuple[float, float]] = deque(maxlen=samples)
+        self.offset = 0.0  # kept current by add and reset: read for every delivery
 
     def add(self, t1: float, t2: float, t3: float, t4: float) -> None:
         delay = (t4 - t1) - (t3 - t2)
         if delay < 0 or t3 < t2 or t4 < t1:
             return  # inconsistent stamps (a clock stepped): no information
         self._recent.append((delay, ((t2 - t1) + (t3 - t4)) / 2.0))
+        delay, offset = min(self._recent)
+        self.offset = 0.0 if abs(offset) <= delay / 2.0 else offset
 
     def reset(self) -> None:
         self._recent.clear()
-
-    @property
-    def offset(self) -> float:
-        if not self._recent:
-            return 0.0
-        delay, offset = min(self._recent)
-        return 0.0 if abs(offset) <= delay / 2.0 else offset
+        self.offset = 0.0
 
     @property
     def delay(self) -> float | None:

@@ -22,17 +22,15 @@ class ReliabilityEstimator:
         self.prior = prior
         self._outcomes: deque[bool] = deque(maxlen=window)
         self._answered = 0
+        self.value = prior  # kept current by ``record``: the leader reads it on every poll
 
     def record(self, answered: bool) -> None:
         if len(self._outcomes) == self.window and self._outcomes[0]:
             self._answered -= 1
         self._outcomes.append(answered)
         self._answered += answered
-
-    @property
-    def value(self) -> float:
         missing = self.window - len(self._outcomes)
-        return (self._answered + self.prior * missing) / self.window
+        self.value = (self._answered + self.prior * missing) / self.window
 
 
 class WeightEMA:

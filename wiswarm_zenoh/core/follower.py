@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from wiswarm_zenoh.core.config import FollowerConfig
+from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES, FollowerConfig
 from wiswarm_zenoh.core.fragments import OutgoingUpdate
 from wiswarm_zenoh.core.queues import RateController, Update, UpdateQueue
 from wiswarm_zenoh.core.wire import (
@@ -41,12 +41,16 @@ class Follower:
         self._seq = 0
         self._sending: OutgoingUpdate | None = None
         self._control_key: tuple[float, int] | None = None
+        self._chunk = self.config.fragment_size - FRAGMENT_HEADER_BYTES  # payload bytes
 
     def offer(self, payload: bytes, now: float) -> bool:
         """Time-stamp an update with ``now`` and queue it; False if it was dropped."""
-        if not isinstance(payload, bytes | bytearray | memoryview):
+        if type(payload) is bytes:
+            data = payload
+        elif isinstance(payload, bytes | bytearray | memoryview):
+            data = bytes(payload)
+        else:
             raise TypeError(f"payload must be bytes, got {type(payload).__name__}")
-        data = bytes(payload)
         if len(data) > self.config.max_update_bytes:
             raise ValueError(
                 f"update of {len(data)} bytes exceeds max_update_bytes "
@@ -57,24 +61,19 @@ class Follower:
             self.rate_dropped += 1
             return False
         self._seq += 1
-        return self.queue.push(Update(seq=self._seq, generated_at=now, payload=data))
+        return self.queue.push(Update(self._seq, now, data))
 
     def on_poll(self, data: bytes, received_at: float, now: float) -> bytes:
         """Answer one poll (raises ``WireError`` if ``data`` is not a poll)."""
         poll = decode_poll(data)
         self.polls += 1
-        self._apply_ack(poll)
+        if self._sending is not None:
+            self._apply_ack(self._sending, poll)
         outgoing = self._current()
-        reply = Reply(
-            follower=self.follower_id, poll_seq=poll.seq, received_at=received_at,
-            sent_at=now, fragment=None if outgoing is None else outgoing.fragment(),
-        )
-        return encode_reply(reply)
+        return encode_reply(Reply(self.follower_id, poll.seq, received_at, now,
+                                  None if outgoing is None else outgoing.fragment()))
 
-    def _apply_ack(self, poll: Poll) -> None:
-        sending = self._sending
-        if sending is None:
-            return
+    def _apply_ack(self, sending: OutgoingUpdate, poll: Poll) -> None:
         if poll.want == "fresh":
             # The leader lost what it had of this update: start it over (the abandon
             # rule may still switch to a fresher one). Never drop it unsent.
@@ -87,17 +86,18 @@ class Follower:
 
     def _current(self) -> OutgoingUpdate | None:
         """The update to send from now on, switching to a fresher one by the abandon rule."""
-        waiting = self.queue.peek()
         sending = self._sending
-        if sending is not None and waiting is not None and self._should_abandon(sending, waiting):
-            self.abandoned += 1
-            sending = None
+        if sending is not None:
+            waiting = self.queue.peek()
+            if waiting is not None and self._should_abandon(sending, waiting):
+                self.abandoned += 1
+                sending = None
         if sending is None:
             update = self.queue.pop()
             if update is None:
                 self._sending = None
                 return None
-            sending = OutgoingUpdate.for_fragment_size(update, self.config.fragment_size)
+            sending = OutgoingUpdate(update, self._chunk)
         self._sending = sending
         return sending
 

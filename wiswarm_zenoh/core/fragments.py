@@ -2,35 +2,28 @@
 
 from __future__ import annotations
 
-import zlib
-from dataclasses import dataclass, field
-
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.queues import Update
-from wiswarm_zenoh.core.wire import FragmentData
+from wiswarm_zenoh.core.wire import FragmentData, checksum
+
+__all__ = ["OutgoingUpdate", "Reassembler", "checksum"]
 
 
-def checksum(payload: bytes) -> int:
-    return zlib.crc32(payload) & 0xFFFFFFFF
-
-
-@dataclass
 class OutgoingUpdate:
     """An update being sent fragment by fragment; ``next_index`` is the first unacked one.
 
     Stop-and-wait: one fragment per poll, resent until the leader's next poll acks it.
+    (A plain class: one is made for every update sent, often one per poll.)
     """
 
-    update: Update
-    chunk: int
-    next_index: int = 0
-    crc: int = field(init=False)
-    count: int = field(init=False)
+    __slots__ = ("chunk", "count", "next_index", "update")
 
-    def __post_init__(self) -> None:
-        self.crc = checksum(self.update.payload)
-        self.count = max(1, -(-len(self.update.payload) // self.chunk))
+    def __init__(self, update: Update, chunk: int, next_index: int = 0) -> None:
+        self.update = update
+        self.chunk = chunk
+        self.next_index = next_index
+        self.count = max(1, -(-len(update.payload) // chunk))
 
     @classmethod
     def for_fragment_size(cls, update: Update, fragment_size: int) -> OutgoingUpdate:
@@ -46,13 +39,11 @@ class OutgoingUpdate:
             self.next_index += 1
 
     def fragment(self) -> FragmentData:
-        start = self.next_index * self.chunk
-        payload = self.update.payload
-        return FragmentData(
-            update_seq=self.update.seq, generated_at=self.update.generated_at,
-            index=self.next_index, count=self.count, total_size=len(payload),
-            checksum=self.crc, data=payload[start:start + self.chunk],
-        )
+        update, index, chunk = self.update, self.next_index, self.chunk
+        payload = update.payload
+        data = payload if self.count == 1 else payload[index * chunk:(index + 1) * chunk]
+        return FragmentData(update.seq, update.generated_at, index, self.count, len(payload),
+                            update.checksum, data)
 
 
 class Reassembler:
@@ -83,6 +74,10 @@ class Reassembler:
             raise WireError(
                 f"update of {frag.total_size} bytes exceeds the limit of {self.max_update_bytes}"
             )
+        if frag.count == 1:  # the whole update in one piece: nothing to collect
+            if self._key is not None:
+                self.reset()
+            return _checked(frag.data, frag)
         key = (frag.update_seq, frag.count, frag.checksum, frag.generated_at)
         if key != self._key:
             self.reset()
@@ -98,8 +93,13 @@ class Reassembler:
             return None
         whole = b"".join(self._parts[i] for i in range(frag.count))
         self.reset()
-        if len(whole) != frag.total_size:
-            raise WireError(f"reassembled {len(whole)} bytes, expected {frag.total_size}")
-        if checksum(whole) != frag.checksum:
-            raise WireError("checksum mismatch on the reassembled update")
-        return whole
+        return _checked(whole, frag)
+
+
+def _checked(whole: bytes, frag: FragmentData) -> bytes:
+    """The reassembled update, if its size and checksum match what the fragments say."""
+    if len(whole) != frag.total_size:
+        raise WireError(f"reassembled {len(whole)} bytes, expected {frag.total_size}")
+    if checksum(whole) != frag.checksum:
+        raise WireError("checksum mismatch on the reassembled update")
+    return whole

@@ -29,23 +29,26 @@ __all__ = ["FollowerStats", "Leader", "PollRequest"]
 SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted policies
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PollRequest:
-    """A poll to send: ``payload`` to the follower, ``control`` broadcast alongside."""
+    """A poll to send: ``payload`` to the follower, ``control`` broadcast alongside.
+
+    The control message is encoded when asked for: a shell may repeat unchanged control
+    less often than it polls, and then pays nothing for it on the other polls. (Not
+    frozen, as the wire messages: one is made per poll.)
+    """
 
     follower: str
     poll_seq: int
     payload: bytes
-    control: bytes
     deadline: float
-
-
-@dataclass(slots=True)
-class _InFlight:
-    follower: str
-    seq: int
     sent_at: float
-    deadline: float
+    control_seq: int
+    packed_entries: bytes
+
+    @property
+    def control(self) -> bytes:
+        return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries)
 
 
 class Leader:
@@ -60,13 +63,13 @@ class Leader:
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None):
         self.config = config or LeaderConfig()
         self.policy = make_policy(self.config.policy, rng)
-        self.table = PeerTable()
+        self.table = PeerTable(self.config.weight_floor)
         self.unknown_replies = 0
         self.polls = 0
         self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
         self._poll_seq = 0
         self._control_seq = 0
-        self._in_flight: _InFlight | None = None
+        self._in_flight: PollRequest | None = None
         self._waypoints: dict[str, list[Waypoint]] = {}
         self._packed_control: bytes | None = None  # cache of the packed entries
 
@@ -120,35 +123,51 @@ class Leader:
         """Choose and build the next poll, or None while one is in flight or nobody is here."""
         if self._in_flight is not None or not self.table.ids:
             return None
-        table, cfg = self.table, self.config
+        table = self.table
         follower = table.ids[self._choose(now)]
         peer = table.peers[follower]
         self._poll_seq += 1
         self._control_seq += 1
         self.polls += 1
         peer.polls += 1
-        deadline = now + cfg.timeout
-        self._in_flight = _InFlight(follower, self._poll_seq, now, deadline)
-        payload = encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want))
         if self._packed_control is None:
             self._packed_control = pack_entries(self._waypoints)
-        control = encode_control_packed(self._control_seq, now, self._packed_control)
-        return PollRequest(follower, self._poll_seq, payload, control, deadline)
+        request = PollRequest(
+            follower, self._poll_seq, encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want)),
+            now + self.config.timeout, now, self._control_seq, self._packed_control,
+        )
+        self._in_flight = request
+        return request
 
     def _choose(self, now: float) -> int:
         """The policy's pick among followers that answer; a silent one only when its
         probe is due (or when every follower is silent)."""
         table = self.table
-        ages = np.maximum(now - table.tau, 0.0) / self.slot
-        w = np.maximum(table.w, self.config.weight_floor)
-        silent = table.p <= 0.0
-        if not silent.any():
-            return self.policy.choose(w, table.p, ages)
-        due = int(np.argmin(table.probe_at))
-        if table.probe_at[due] <= now or silent.all():
+        if not table.silent:
+            return self._pick(now, None)
+        due = table.first_probe()
+        if table.probe_at[due] <= now or table.silent == len(table):
             return due
-        live = np.flatnonzero(~silent)
-        return int(live[self.policy.choose(w[live], table.p[live], ages[live])])
+        live = table.live()
+        return live[self._pick(now, live)]
+
+    def _pick(self, now: float, live: list[int] | None) -> int:
+        """The policy's pick among all followers, or among those in ``live`` (an index
+        into it), by ages in slots; plain floats for a few followers, numpy for many."""
+        table, slot = self.table, self.slot
+        if table.few:
+            w: Sequence[float] = table.w
+            p: Sequence[float] = table.p
+            tau: Sequence[float] = table.tau
+            if live is not None:
+                w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
+            return self.policy.choose_few(w, p, [max(now - t, 0.0) / slot for t in tau])
+        wa, pa, taua = table.arrays()
+        if live is not None:
+            wa, pa, taua = wa[live], pa[live], taua[live]
+        ages = np.maximum(now - taua, 0.0)
+        ages /= slot
+        return self.policy.choose(wa, pa, ages)
 
     def next_timer(self) -> float | None:
         return None if self._in_flight is None else self._in_flight.deadline
@@ -164,18 +183,19 @@ class Leader:
         flight = self._in_flight
         return [] if flight is None else self._unanswered(flight, now)
 
-    def _unanswered(self, flight: _InFlight, now: float) -> list[Event]:
-        self._complete(flight, answered=False, now=now)
-        self.table.peers[flight.follower].timeouts += 1
-        return [TimedOut(flight.follower, flight.seq)]
+    def _unanswered(self, flight: PollRequest, now: float) -> list[Event]:
+        peer = self.table.peers[flight.follower]
+        self._complete(flight, peer, answered=False, now=now)
+        peer.timeouts += 1
+        self.table.sync(flight.follower)
+        return [TimedOut(flight.follower, flight.poll_seq)]
 
-    def _complete(self, flight: _InFlight, answered: bool, now: float) -> None:
+    def _complete(self, flight: PollRequest, peer: Peer, answered: bool, now: float) -> None:
+        """The poll in flight is over (the caller syncs the policy arrays)."""
         self._in_flight = None
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * max(now - flight.sent_at, 1e-6)
         cfg = self.config
-        peer = self.table.peers[flight.follower]
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
-        self.table.sync(flight.follower)
 
     def on_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
         """Consume one reply from ``follower`` (the key it came from)."""
@@ -189,21 +209,22 @@ class Leader:
             peer.errors += 1
             return [Rejected(follower, str(exc))]
         flight = self._in_flight
-        if flight is None or flight.follower != follower or reply.poll_seq != flight.seq:
+        if flight is None or flight.follower != follower or reply.poll_seq != flight.poll_seq:
             peer.stale += 1
             return [Stale(follower, f"reply to poll {reply.poll_seq}, not the one in flight")]
         if reply.follower != follower:
             peer.errors += 1
             return [Rejected(follower, f"reply claims to come from {reply.follower!r}")]
-        self._complete(flight, answered=True, now=now)
+        self._complete(flight, peer, answered=True, now=now)
         peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
-        return self._take_fragment(follower, peer, reply, now)
+        events = self._take_fragment(follower, peer, reply, now)
+        self.table.sync(follower)
+        return events
 
     def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float) -> list[Event]:
         frag = reply.fragment
         if frag is None:
             peer.idle_since = now
-            self.table.sync(follower)
             return []
         try:
             whole = peer.reassembler.add(frag)
@@ -218,7 +239,6 @@ class Leader:
         if not peer.aoi.deliver(generated_at, now):
             peer.stale += 1
             return [Stale(follower, "update older than the freshest delivered")]
-        self.table.sync(follower)
         return [Delivered(follower, whole, generated_at, now - generated_at, frag.update_seq)]
 
     def stats(self, follower: str, now: float) -> FollowerStats:

@@ -1,12 +1,14 @@
 """What the leader knows of each follower, kept in one place.
 
 Per-follower objects hold the estimators; the numbers the policy reads (w, p, tau) are
-mirrored in numpy arrays so that a decision over thousands of followers is one
-vectorised pass.
+mirrored in columns of doubles that a plain loop reads as floats (a few followers) and
+numpy views without a copy (thousands: one vectorised pass).
 """
 
 from __future__ import annotations
 
+import math
+from array import array
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -77,8 +79,8 @@ class Peer:
     def record_poll(self, answered: bool, now: float, interval: float, longest: float) -> None:
         """Count a poll's outcome; a silent follower's next probe backs off exponentially."""
         self.reliability.record(answered)
-        if not self.silent:
-            self.probe_gap, self.probe_at = 0.0, float("-inf")
+        if self.reliability.value > 0.0:
+            self.probe_gap, self.probe_at = 0.0, -math.inf
             return
         self.probe_gap = interval if self.probe_gap == 0.0 else min(2 * self.probe_gap, longest)
         self.probe_at = now + self.probe_gap
@@ -106,50 +108,76 @@ class Peer:
         )
 
 
-class PeerTable:
-    """Followers in join order, with the arrays (w, p, tau, probe_at) the leader reads.
+FEW = 64  # followers up to which plain loops beat numpy (its cost per call is fixed)
 
-    ``tau`` is each follower's ``policy_tau``: the scheduler's view of its freshness;
-    ``probe_at`` is when a silent follower is due for a probe (+inf if not silent).
+
+class PeerTable:
+    """Followers in join order, with the columns (w, p, tau, probe_at) the leader reads.
+
+    ``w`` is each follower's weight raised to ``weight_floor``; ``tau`` its
+    ``policy_tau``: the scheduler's view of its freshness; ``probe_at`` is when a silent
+    follower is due for a probe (+inf if not silent); ``silent`` counts those with p = 0,
+    so that the common case (none) costs the scheduler no pass over the columns.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, weight_floor: float = 0.0) -> None:
+        self.weight_floor = weight_floor
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
+        self.silent = 0
         self._index: dict[str, int] = {}
-        self.w: FloatArray = np.zeros(0)
-        self.p: FloatArray = np.zeros(0)
-        self.tau: FloatArray = np.zeros(0)
-        self.probe_at: FloatArray = np.zeros(0)
+        self.w = array("d")
+        self.p = array("d")
+        self.tau = array("d")
+        self.probe_at = array("d")
 
     def __len__(self) -> int:
         return len(self.ids)
+
+    @property
+    def few(self) -> bool:
+        return len(self.ids) <= FEW
+
+    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """numpy views of w, p and tau (no copy: drop them before the next add or remove)."""
+        return np.frombuffer(self.w), np.frombuffer(self.p), np.frombuffer(self.tau)
 
     def add(self, follower: str, peer: Peer) -> None:
         self._index[follower] = len(self.ids)
         self.ids.append(follower)
         self.peers[follower] = peer
-        self.w = np.append(self.w, peer.weight.value)
-        self.p = np.append(self.p, peer.reliability.value)
-        self.tau = np.append(self.tau, peer.policy_tau)
-        self.probe_at = np.append(self.probe_at, _probe_at(peer))
+        for column, placeholder in ((self.w, 0.0), (self.p, 1.0), (self.tau, 0.0),
+                                    (self.probe_at, 0.0)):
+            column.append(placeholder)
+        self.sync(follower)
 
     def remove(self, follower: str) -> None:
         i = self._index[follower]
+        self.silent -= self.peers[follower].silent
         del self.ids[i], self.peers[follower]
         self._index = {fid: j for j, fid in enumerate(self.ids)}
-        self.w, self.p, self.tau, self.probe_at = (
-            np.delete(a, i) for a in (self.w, self.p, self.tau, self.probe_at)
-        )
+        del self.w[i], self.p[i], self.tau[i], self.probe_at[i]
 
     def sync(self, follower: str) -> None:
-        """Copy one follower's current estimates into the policy arrays."""
+        """Copy one follower's current estimates into the policy columns."""
         i = self._index[follower]
         peer = self.peers[follower]
-        self.w[i], self.p[i], self.tau[i], self.probe_at[i] = (
-            peer.weight.value, peer.reliability.value, peer.policy_tau, _probe_at(peer)
-        )
+        p = peer.reliability.value
+        self.silent += (p <= 0.0) - (self.p[i] <= 0.0)
+        self.w[i] = max(peer.weight.value, self.weight_floor)
+        self.p[i] = p
+        self.tau[i] = peer.policy_tau
+        self.probe_at[i] = peer.probe_at if p <= 0.0 else math.inf
 
+    def first_probe(self) -> int:
+        """The silent follower due for a probe first (the smallest probe_at)."""
+        if self.few:
+            return min(range(len(self.ids)), key=self.probe_at.__getitem__)
+        return int(np.argmin(np.frombuffer(self.probe_at)))
 
-def _probe_at(peer: Peer) -> float:
-    return peer.probe_at if peer.silent else float("inf")
+    def live(self) -> list[int]:
+        """The followers that answer (p > 0), by index."""
+        if self.few:
+            return [i for i, p in enumerate(self.p) if p > 0.0]
+        return [int(i) for i in np.flatnonzero(np.frombuffer(self.p) > 0.0)]
+

@@ -1,38 +1,68 @@
 """Scheduling policies: who to poll next, given weights w, reliabilities p and ages h.
 
-Every policy works on numpy arrays in one vectorised pass and breaks ties
-deterministically (lowest index, i.e. the follower that joined first), except
-``random``, whose randomness comes from the injected generator.
+Every policy decides in two equivalent ways: ``choose`` on numpy arrays in one
+vectorised pass (many followers), and ``choose_few`` on plain float sequences (a swarm
+of a few dozen: there numpy's fixed cost per call dominates, and more so when the
+leader wakes up cold for every poll). Both break ties deterministically (lowest index,
+i.e. the follower that joined first), except ``random``, whose randomness comes from
+the injected generator.
 """
 
 from __future__ import annotations
 
+import math
 import random
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
-ArrayFn = Callable[[FloatArray], FloatArray]
+CostFn = Callable[[Any], Any]  # on a float or an array of ages alike
+Floats = Sequence[float]
+X = TypeVar("X", float, FloatArray)
 
 
 class Policy(Protocol):
-    """Picks the index of the follower to poll; arrays have one entry per follower."""
+    """Picks the index of the follower to poll; inputs have one entry per follower."""
 
     name: str
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int: ...
+
+    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int: ...
+
+
+class IndexPolicy:
+    """Polls the follower with the largest index ``index(w, p, h)``, written once for
+    floats and arrays alike (numpy's operators on arrays, Python's on floats, in the
+    same order: both ways give the same pick)."""
+
+    name = ""
+
+    def index(self, w: X, p: X, h: X) -> X:
+        raise NotImplementedError
+
+    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
+        return int(np.argmax(self.index(w, p, h)))
+
+    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+        index = self.index
+        best, best_value = 0, -math.inf
+        for i, value in enumerate(map(index, w, p, h)):
+            if value > best_value:  # strict: the first of equals wins, as np.argmax
+                best, best_value = i, value
+        return best
 
 
 @dataclass(frozen=True)
 class AgeCost:
     """A non-decreasing cost f(A) of age and its integral F(A) = int_0^A f (F(0) = 0)."""
 
-    f: ArrayFn
-    integral: ArrayFn
+    f: CostFn
+    integral: CostFn
 
 
 LINEAR_COST = AgeCost(f=lambda a: a, integral=lambda a: 0.5 * a * a)
@@ -45,7 +75,7 @@ def power_cost(k: float) -> AgeCost:
     return AgeCost(f=lambda a: a**k, integral=lambda a: a ** (k + 1) / (k + 1))
 
 
-class Whittle:
+class Whittle(IndexPolicy):
     """The paper's index ``w p A^2``, generalised to a cost f (Tripathi and Modiano).
 
     For cost f the index is ``2 w p (A f(A) - F(A))``; for f(A) = A this is exactly
@@ -57,13 +87,15 @@ class Whittle:
     def __init__(self, cost: AgeCost = LINEAR_COST) -> None:
         self.cost = cost
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
-        if self.cost is LINEAR_COST:
-            return int(np.argmax(w * p * h * h))
-        return int(np.argmax(2.0 * w * p * (h * self.cost.f(h) - self.cost.integral(h))))
+    def index(self, w: X, p: X, h: X) -> X:
+        cost = self.cost
+        if cost is LINEAR_COST:
+            return w * p * h * h
+        general: X = 2.0 * w * p * (h * cost.f(h) - cost.integral(h))
+        return general
 
 
-class WhittleExact:
+class WhittleExact(IndexPolicy):
     """Kadota et al.'s exact index for the slotted model: ``w p h (h + 2/p - 1) / 2``.
 
     Ages ``h`` are in slots (the leader passes age divided by its mean poll time).
@@ -71,26 +103,26 @@ class WhittleExact:
 
     name = "whittle-exact"
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
-        return int(np.argmax(w * p * h * (h + 2.0 / p - 1.0)))
+    def index(self, w: X, p: X, h: X) -> X:
+        return w * p * h * (h + 2.0 / p - 1.0)
 
 
-class MaxWeight:
+class MaxWeight(IndexPolicy):
     """Kadota et al.'s Max-Weight: ``w p h (h + 2)``, the drift of a quadratic Lyapunov."""
 
     name = "max-weight"
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
-        return int(np.argmax(w * p * h * (h + 2.0)))
+    def index(self, w: X, p: X, h: X) -> X:
+        return w * p * h * (h + 2.0)
 
 
-class MaxAge:
+class MaxAge(IndexPolicy):
     """Greedy: the oldest information first, ignoring weights and reliabilities."""
 
     name = "max-age"
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
-        return int(np.argmax(h))
+    def index(self, w: X, p: X, h: X) -> X:
+        return h
 
 
 class RoundRobin:
@@ -102,6 +134,9 @@ class RoundRobin:
         self._last = -1
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
+        return self.choose_few(w, p, h)  # type: ignore[arg-type]
+
+    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
         self._last = (self._last + 1) % len(h)
         return self._last
 
@@ -115,6 +150,9 @@ class RandomChoice:
         self._rng = rng
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
+        return self._rng.randrange(len(h))
+
+    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
         return self._rng.randrange(len(h))
 
 

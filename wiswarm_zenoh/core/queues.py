@@ -4,20 +4,30 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from wiswarm_zenoh.core.config import DropRule, QueueKind
+from wiswarm_zenoh.core.wire import checksum
 
 GRID_TOLERANCE = 1e-6  # of an interval: absorbs float rounding of the producer's clock
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Update:
-    """An application update, stamped when the middleware admitted it."""
+    """An application update, stamped when the middleware admitted it.
+
+    Its checksum is taken here, once, on the producer's thread: a poll that sends the
+    update then only copies it out. (Not frozen: one is made per update, and a frozen
+    dataclass costs several times more to build.)
+    """
 
     seq: int
     generated_at: float
     payload: bytes
+    checksum: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.checksum = checksum(self.payload)
 
 
 class UpdateQueue:

@@ -7,9 +7,10 @@ come from the network and may be anything.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import zlib
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Any, Literal, NoReturn
 
 import msgpack
 
@@ -20,12 +21,16 @@ MAX_ID_BYTES = 128  # UTF-8
 MAX_WAYPOINTS = 256
 MAX_CONTROL_ENTRIES = 100_000
 UINT32 = 0xFFFFFFFF
+MAX_INT = 2**63 - 1
+MAX_SIZE = 2**40  # bytes of one update, as the wire allows (configs set tighter limits)
 
 Waypoint = tuple[float, float, float, float]  # (t, x, y, z)
 Want = Literal["next", "fresh"]
 
 
-@dataclass(frozen=True, slots=True)
+# Poll, FragmentData and Reply are built on every poll: not frozen, since a frozen
+# dataclass costs several times more to build (each field through object.__setattr__).
+@dataclass(slots=True)
 class Poll:
     """The leader's request: which poll this is, when it left, and what arrived last."""
 
@@ -35,7 +40,7 @@ class Poll:
     want: Want = "next"
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class FragmentData:
     """One piece of one update, with what the leader needs to check the whole."""
 
@@ -48,7 +53,7 @@ class FragmentData:
     data: bytes
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Reply:
     """A follower's answer to one poll; ``fragment`` is None for "nothing new"."""
 
@@ -68,16 +73,22 @@ class Control:
     entries: Mapping[str, Sequence[Waypoint]]
 
 
+# The checksum a fragment carries: CRC-32 of the whole update (Python's is unsigned).
+checksum: Callable[[bytes], int] = zlib.crc32
+
+
 def _pack(obj: dict[str, Any]) -> bytes:
     packed: bytes = msgpack.packb(obj, use_bin_type=True)
     return packed
 
 
 def _unpack(data: bytes, kind: str) -> dict[str, Any]:
-    if not isinstance(data, bytes | bytearray | memoryview):
-        raise WireError(f"{kind}: expected bytes, got {type(data).__name__}")
+    if type(data) is not bytes:
+        if not isinstance(data, bytes | bytearray | memoryview):
+            raise WireError(f"{kind}: expected bytes, got {type(data).__name__}")
+        data = bytes(data)
     try:
-        obj = msgpack.unpackb(bytes(data), raw=False, strict_map_key=True, use_list=True)
+        obj = msgpack.unpackb(data, raw=False, strict_map_key=True, use_list=True)
     except Exception as exc:  # msgpack raises many types on garbage
         raise WireError(f"{kind}: not msgpack ({type(exc).__name__})") from None
     if not isinstance(obj, dict):
@@ -89,7 +100,13 @@ def _unpack(data: bytes, kind: str) -> dict[str, Any]:
     return obj
 
 
-def _int(obj: Mapping[str, Any], key: str, lo: int = 0, hi: int = 2**63 - 1) -> int:
+# Decoders run on every poll and reply: they test the common case inline (``x - x`` is
+# 0.0 for a finite float only) and call these helpers, which say what is wrong, when it
+# fails. A short id (at most 32 characters) fits MAX_ID_BYTES in any encoding.
+SHORT_ID = MAX_ID_BYTES // 4
+
+
+def _int(obj: Mapping[str, Any], key: str, lo: int = 0, hi: int = MAX_INT) -> int:
     value = obj.get(key)
     if type(value) is not int or not lo <= value <= hi:
         raise WireError(f"field {key!r} must be an integer in [{lo}, {hi}], got {value!r}")
@@ -125,17 +142,26 @@ def encode_poll(poll: Poll) -> bytes:
 
 def decode_poll(data: bytes) -> Poll:
     obj = _unpack(data, "poll")
+    seq, lt = obj.get("seq"), obj.get("lt")
+    if type(seq) is not int or not 0 <= seq <= MAX_INT:
+        seq = _int(obj, "seq")
+    if type(lt) is not float or lt - lt != 0.0:
+        lt = _float(obj, "lt")
     ack_raw = obj.get("ack")
     ack: tuple[int, int] | None = None
     if ack_raw is not None:
         if not isinstance(ack_raw, list) or len(ack_raw) != 2:
             raise WireError("field 'ack' must be null or [update_seq, index]")
-        ack_map = {"u": ack_raw[0], "i": ack_raw[1]}
-        ack = (_int(ack_map, "u"), _int(ack_map, "i", hi=UINT32))
+        acked, index = ack_raw
+        if type(acked) is not int or type(index) is not int or not (
+            0 <= acked <= MAX_INT and 0 <= index <= UINT32
+        ):
+            raise WireError(f"field 'ack' must be [update_seq, index] in range, got {ack_raw!r}")
+        ack = (acked, index)
     want = obj.get("want")
     if want not in ("next", "fresh"):
         raise WireError(f"field 'want' must be 'next' or 'fresh', got {want!r}")
-    return Poll(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), ack=ack, want=want)
+    return Poll(seq, lt, ack, want)
 
 
 def encode_reply(reply: Reply) -> bytes:
@@ -156,25 +182,43 @@ def _decode_fragment(body: object) -> FragmentData:
     data = body.get("data")
     if not isinstance(data, bytes):
         raise WireError("fragment 'data' must be bytes")
+    seq, at, index, count = body.get("u"), body.get("g"), body.get("i"), body.get("n")
+    total, crc = body.get("size"), body.get("crc")
+    if not (type(seq) is int and type(index) is int and type(count) is int
+            and type(total) is int and type(crc) is int and 0 <= seq <= MAX_INT
+            and 0 <= index < count <= UINT32 and len(data) <= total <= MAX_SIZE
+            and 0 <= crc <= UINT32):
+        _fragment_error(body, data)
+    if type(at) is not float or at - at != 0.0:
+        at = _float(body, "g")
+    return FragmentData(seq, at, index, count, total, crc, data)
+
+
+def _fragment_error(body: dict[str, Any], data: bytes) -> NoReturn:
+    """Raise the WireError that says which fragment field is wrong."""
     count = _int(body, "n", lo=1, hi=UINT32)
-    index = _int(body, "i", hi=count - 1)
-    total = _int(body, "size", hi=2**40)
+    _int(body, "i", hi=count - 1)
+    total = _int(body, "size", hi=MAX_SIZE)
     if len(data) > total:
         raise WireError(f"fragment of {len(data)} bytes exceeds the update's size {total}")
-    return FragmentData(
-        update_seq=_int(body, "u"), generated_at=_float(body, "g"), index=index, count=count,
-        total_size=total, checksum=_int(body, "crc", hi=UINT32), data=data,
-    )
+    _int(body, "u")
+    _int(body, "crc", hi=UINT32)
+    raise WireError("malformed fragment")  # unreachable: one of the checks above failed
 
 
 def decode_reply(data: bytes) -> Reply:
     obj = _unpack(data, "reply")
+    sender, seq, rt, st = obj.get("from"), obj.get("poll"), obj.get("rt"), obj.get("st")
+    if type(sender) is not str or not 0 < len(sender) <= SHORT_ID:
+        sender = _ident(sender, "field 'from'")
+    if type(seq) is not int or not 0 <= seq <= MAX_INT:
+        seq = _int(obj, "poll")
+    if type(rt) is not float or rt - rt != 0.0:
+        rt = _float(obj, "rt")
+    if type(st) is not float or st - st != 0.0:
+        st = _float(obj, "st")
     body = obj.get("frag")
-    return Reply(
-        follower=_ident(obj.get("from"), "field 'from'"), poll_seq=_int(obj, "poll"),
-        received_at=_float(obj, "rt"), sent_at=_float(obj, "st"),
-        fragment=None if body is None else _decode_fragment(body),
-    )
+    return Reply(sender, seq, rt, st, None if body is None else _decode_fragment(body))
 
 
 def validate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Waypoint]:

@@ -19,6 +19,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
+from multiprocessing.synchronize import Event as ProcessEvent
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import Any, TextIO
@@ -50,7 +51,8 @@ from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 log = logging.getLogger(__name__)
 
 READY_TIMEOUT = 30.0  # seconds for a child to open its session
-STOP_TIMEOUT = 5.0  # seconds for a child to stop before it is terminated
+READY_CHECK = 0.1  # seconds between checks that the children still starting are alive
+STOP_TIMEOUT = 5.0  # seconds for a child to stop before it is killed
 REFRESH = 0.25  # seconds between redraws of the live table
 
 
@@ -66,31 +68,70 @@ class DemoOptions:
 
 
 class Children:
-    """Started children, all stopped on exit: asked (SIGTERM) first, then killed."""
+    """Child processes (``spawn``) started by name and all stopped on exit: asked
+    (SIGTERM; a child whose work is done ignores it and ends by itself, see
+    ``run_child``), then killed if they do not end within STOP_TIMEOUT.
+
+    ``start(..., wait=False)`` lets several children come up together; ``wait_ready``
+    then waits for all of them.
+    """
 
     def __init__(self, ctx: SpawnContext) -> None:
         self._ctx = ctx
-        self._procs: list[SpawnProcess] = []
+        self._procs: dict[str, SpawnProcess] = {}
+        self._starting: list[tuple[SpawnProcess, ProcessEvent]] = []  # not yet ready
 
-    def start(self, name: str, target: Callable[..., object], *args: Any) -> None:
-        """Start ``target(*args, stop, ready)`` and wait until it says it is ready."""
+    def start(self, name: str, target: Callable[..., object], *args: Any,
+              wait: bool = True) -> None:
+        """Start ``target(*args, stop, ready)`` as child ``name``; with ``wait``, return
+        once it (and every child started before it) says it is ready."""
+        if name in self._procs:
+            raise ValueError(f"a child named {name!r} was already started")
         ready = self._ctx.Event()
         proc = self._ctx.Process(target=run_child, args=(target, args, ready), name=name)
         proc.start()
-        self._procs.append(proc)
-        deadline = time.monotonic() + READY_TIMEOUT
-        while not ready.wait(0.1):
-            if not proc.is_alive() or time.monotonic() > deadline:
-                raise RuntimeError(f"{name} did not start (exit code {proc.exitcode})")
+        self._procs[name] = proc
+        self._starting.append((proc, ready))
+        if wait:
+            self.wait_ready()
+
+    def wait_ready(self, timeout: float = READY_TIMEOUT) -> None:
+        """Wait until every child started so far is ready; RuntimeError names the first
+        that ended (or was not ready within ``timeout`` seconds) instead."""
+        deadline = time.monotonic() + timeout
+        while self._starting:
+            proc, ready = self._starting[0]
+            if ready.wait(min(READY_CHECK, max(0.0, deadline - time.monotonic()))):
+                self._starting.pop(0)
+                continue
+            for other, _ in self._starting:
+                if not other.is_alive():
+                    raise RuntimeError(f"{other.name} did not start (exit code "
+                                       f"{other.exitcode})")
+            if time.monotonic() >= deadline:
+                raise RuntimeError(f"{proc.name} was not ready within {timeout:g} s")
+
+    def alive(self, name: str) -> bool:
+        """Whether child ``name`` is still running."""
+        return self._procs[name].is_alive()
+
+    def join(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` seconds in all for every child to end; True if they did."""
+        deadline = time.monotonic() + timeout
+        for proc in self._procs.values():
+            proc.join(max(0.0, deadline - time.monotonic()))
+        return not any(proc.is_alive() for proc in self._procs.values())
 
     def __enter__(self) -> Children:
         return self
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
-        for proc in self._procs:
-            proc.terminate()  # SIGTERM: the child's request to stop
-        for proc in reversed(self._procs):
+        procs = list(self._procs.values())
+        for proc in procs:
+            if proc.is_alive():
+                proc.terminate()  # SIGTERM: the child's request to stop
+        for proc in reversed(procs):
             proc.join(STOP_TIMEOUT)
             if proc.is_alive():
                 log.warning("%s did not stop: killing it", proc.name)
@@ -178,7 +219,9 @@ def run_demo(options: DemoOptions, stream: TextIO = sys.stdout) -> Path:
             for i in range(1, options.followers + 1):
                 follower = FollowerOptions(options.swarm, f"uav{i}", FollowerConfig(),
                                            options.frame_bytes, options.frame_rate)
-                children.start(f"follower uav{i}", run_follower, node_spec, follower)
+                children.start(f"follower uav{i}", run_follower, node_spec, follower,
+                               wait=False)
+            children.wait_ready()
             leader = LeaderOptions(options.swarm, LeaderConfig(policy=options.policy),
                                    record=str(record))
             with node_spec.open() as session:

@@ -10,14 +10,13 @@ from types import TracebackType
 
 import zenoh
 
-from wiswarm_zenoh.core import Follower, FollowerConfig, Waypoint, WireError
+from wiswarm_zenoh.core import Follower, FollowerConfig, WireError
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.control import ControlCallback, ControlListener
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 
 log = logging.getLogger(__name__)
-
-ControlCallback = Callable[[list[Waypoint]], None]
 
 
 class FollowerNode:
@@ -47,7 +46,6 @@ class FollowerNode:
         self._key = zenoh.KeyExpr(self.keys.update(follower_id))  # parsed once, not per reply
         self._core = Follower(follower_id, config)
         self._clock = clock
-        self._on_control = on_control
         self._sample = sample_on_poll
         self._lock = threading.Lock()
         self.bad_input = BadInputLog(log)
@@ -56,7 +54,7 @@ class FollowerNode:
         self._queryable = session.declare_queryable(
             self._key, zenoh.handlers.Callback(self._on_query, indirect=False)
         )
-        self._subscriber = session.declare_subscriber(self.keys.control, self._on_control_sample)
+        self._control = ControlListener(session, swarm, follower_id, on_control, self.bad_input)
         self._token = session.liveliness().declare_token(self.keys.member(follower_id))
         log.info("follower %s up on %s", follower_id, self._key)
 
@@ -88,19 +86,11 @@ class FollowerNode:
                     return
             query.reply(self._key, reply)
 
-    def _on_control_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            with self._lock:
-                entry = self._core.on_control(sample.payload.to_bytes())
-        except WireError as exc:
-            self.bad_input.report(str(sample.key_expr), str(exc))
-            return
-        if entry is not None and self._on_control is not None:
-            self._on_control(entry)
-
     def close(self) -> None:
         """Leave the swarm: the token goes first so the leader stops polling."""
-        undeclare(self._token, self._subscriber, self._queryable)
+        undeclare(self._token)
+        self._control.close()
+        undeclare(self._queryable)
 
     def __enter__(self) -> FollowerNode:
         return self

@@ -1,9 +1,15 @@
 """The leader on Zenoh: discovery by liveliness, the poll loop, control and telemetry.
 
 One thread owns the loop and keeps exactly one poll in flight: it asks the core whom to
-poll, sends the ``get`` through that follower's prepared querier, hands each reply to
-the core as it arrives (the reply channel is read right on this thread, no hop), and
-tells the core when Zenoh closes the query (all replies in, or the timeout).
+poll, sends the ``get`` through that follower's prepared querier, and hands each reply
+to the core as it arrives (the reply channel is read right on this thread, no hop).
+The poll is over as soon as the core takes a valid reply, and the loop moves on then:
+Zenoh's closing of that ``get`` (the follower's final message) is not waited for; the
+``get`` is kept open aside, and whatever else it brings (a second queryable on the
+key, say) is handed to the core later, which counts it as stale or rejected. Only if
+Zenoh closes the ``get`` with no valid reply (the timeout) is the core told so. A
+delivery is handed on (``fresh`` re-publication, ``on_delivery``) right after the next
+poll is sent, so that it overlaps that poll's round trip.
 """
 
 from __future__ import annotations
@@ -38,6 +44,7 @@ T = TypeVar("T")
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
 ZENOH_TIMEOUT = b"Timeout"  # the error reply Zenoh itself gives a get that timed out
+LATE_BATCH = 8  # finished polls whose gets are drained together (and at every stats put)
 
 
 def _notify(callback: Callable[[T], object], arg: T) -> None:
@@ -88,6 +95,8 @@ class LeaderNode:
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._links: dict[str, FollowerLink] = {}
+        self._late: list[tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]] = []
+        self._delivered: list[Delivered] = []  # not handed over yet
         self._transport_errors: Counter[str] = Counter()
         self.bad_input = BadInputLog(log)
         self._control_version = 0
@@ -133,6 +142,7 @@ class LeaderNode:
         self._stop.set()
         self._wake.set()
         self._thread.join()
+        self._late.clear()
         undeclare(self._members)
         for link in self._links.values():
             link.close()
@@ -160,31 +170,47 @@ class LeaderNode:
     # --- the poll thread ---
 
     def _run(self) -> None:
-        while not self._stop.is_set():
-            if self._changes:
-                self._apply_changes()
-            now = self._clock()
-            if now >= self._next_stats:
-                self._publish_stats(now)
-            with self._lock:
-                request = self._leader.poll(now)
-                version = self._control_version
-            if request is None:
-                self._wake.wait(max(0.0, self._next_stats - now))
-                self._wake.clear()
-                continue
-            sent_version, sent_at = self._control_sent
-            if version != sent_version or now - sent_at >= self._control_period:
-                self._control.put(request.control)
-                self._control_sent = (version, now)
-            link = self._links[request.follower]
-            for reply in link.querier.get(payload=request.payload):
-                self._take(link, reply)
-            with self._lock:
-                events = self._leader.finish_poll(self._clock())
-            self._dispatch(events, link.key)
+        try:
+            while not self._stop.is_set():
+                if len(self._late) >= LATE_BATCH:
+                    self._drain_late()
+                if self._changes:
+                    self._apply_changes()
+                now = self._clock()
+                if now >= self._next_stats:
+                    self._publish_stats(now)
+                with self._lock:
+                    request = self._leader.poll(now)
+                    version = self._control_version
+                if request is None:
+                    self._hand_over()
+                    self._wake.wait(max(0.0, self._next_stats - now))
+                    self._wake.clear()
+                    continue
+                sent_version, sent_at = self._control_sent
+                if version != sent_version or now - sent_at >= self._control_period:
+                    self._control.put(request.control)
+                    self._control_sent = (version, now)
+                self._poll(self._links[request.follower], request.payload)
+        finally:
+            self._hand_over()
 
-    def _take(self, link: FollowerLink, reply: zenoh.Reply) -> None:
+    def _poll(self, link: FollowerLink, payload: bytes) -> None:
+        """Send one poll and hand its replies to the core until one completes it (the
+        get is then kept aside, see the module's docstring) or Zenoh closes the get."""
+        replies = link.querier.get(payload=payload)
+        if self._delivered:  # the last poll's, while this one is on its way
+            self._hand_over()
+        for reply in replies:
+            if self._take(link, reply):
+                self._late.append((link, replies))
+                return
+        with self._lock:  # closed with no valid reply: the core counts the poll unanswered
+            events = self._leader.finish_poll(self._clock())
+        self._dispatch(events, link.key)
+
+    def _take(self, link: FollowerLink, reply: zenoh.Reply) -> bool:
+        """Hand one reply to the core; True if it completed the poll in flight."""
         now = self._clock()
         sample = reply.ok
         if sample is None:
@@ -192,31 +218,52 @@ class LeaderNode:
             if reason != ZENOH_TIMEOUT:  # a timeout is no error: finish_poll counts it
                 self._transport_errors[link.follower] += 1
                 self.bad_input.report(link.key, f"error reply {reason!r}")
-            return
+            return False
         payload = sample.payload
         if len(payload) > self._max_reply:
             self._transport_errors[link.follower] += 1
             self.bad_input.report(link.key, f"reply of {len(payload)} bytes exceeds the limit")
-            return
+            return False
         with self._lock:
             events = self._leader.on_reply(link.follower, payload.to_bytes(), now)
-        self._dispatch(events, str(sample.key_expr))
+            done = self._leader.in_flight is None
+        if events:
+            self._dispatch(events, link.key)
+        return done
+
+    def _drain_late(self) -> None:
+        """Replies still coming to gets whose poll is over, without waiting for any:
+        the core counts them (stale, or rejected if malformed)."""
+        open_gets = []
+        for link, replies in self._late:
+            try:
+                while (reply := replies.try_recv()) is not None:
+                    self._take(link, reply)
+            except zenoh.ZError:  # closed: Zenoh has delivered all it will
+                continue
+            open_gets.append((link, replies))
+        self._late = open_gets
 
     def _dispatch(self, events: list[Event], key: str) -> None:
+        """Report bad input now; keep deliveries for ``_hand_over``."""
         for event in events:
             if isinstance(event, Delivered):
-                self._deliver(event)
+                self._delivered.append(event)
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(key, event.reason)
             else:
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
 
-    def _deliver(self, event: Delivered) -> None:
-        link = self._links.get(event.follower)
-        if link is not None and link.listening:
-            link.fresh.put(event.payload, attachment=fresh_attachment(event))
-        if self._on_delivery is not None:
-            _notify(self._on_delivery, event)
+    def _hand_over(self) -> None:
+        """Deliveries go out once the next poll is sent: re-publishing them and the
+        application's callback then overlap that poll's round trip instead of delaying it."""
+        delivered, self._delivered = self._delivered, []
+        for event in delivered:
+            link = self._links.get(event.follower)
+            if link is not None and link.listening:
+                link.fresh.put(event.payload, attachment=fresh_attachment(event))
+            if self._on_delivery is not None:
+                _notify(self._on_delivery, event)
 
     def _apply_changes(self) -> None:
         while self._changes:
@@ -247,6 +294,7 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
+        self._drain_late()  # so that the stats count every late reply so far
         with self._lock:
             records = [
                 follower_stats(self._leader.stats(f, now), self._transport_errors[f])

@@ -70,12 +70,18 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
     Children stop on SIGTERM (``Process.terminate()``) rather than on a shared
     ``multiprocessing.Event``: such an event is left locked for good if a process is
     killed while waiting on it. Ctrl-C reaches the whole process group, so children
-    ignore it and let their parent decide.
+    ignore it and let their parent decide. Once ``target`` has returned the child is
+    finishing anyway, and ignores SIGTERM too: a parent stopping its children then would
+    only cut the interpreter's shutdown short (and it would show as a crash). SIG_IGN
+    holds through the interpreter's finalisation; a Python handler does not.
     """
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    target(*args, stop, ready)
+    try:
+        target(*args, stop, ready)
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
 
 def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = None,

@@ -9,16 +9,19 @@ from collections.abc import Callable
 
 log = logging.getLogger(__name__)
 
+MAX_RATE_HZ = 10_000.0
+
 
 class Ticker:
-    """Calls `action(now)` every `1 / rate_hz` seconds until `stop()`. A late tick skips
-    the ticks it missed instead of bursting to catch up (a camera drops frames; a burst
-    of stale frames would only load the CPU). `now` comes from `clock`."""
+    """Calls ``action(now)`` every ``1 / rate_hz`` seconds until ``stop()``. A late tick
+    skips the ticks it missed instead of bursting to catch up (a camera drops frames; a
+    burst of stale frames would only load the CPU). ``now`` comes from ``clock``; a tick
+    that raises is logged and the next one comes on time."""
 
-    def __init__(self, rate_hz: float, action: Callable[[float], None], name: str,
+    def __init__(self, rate_hz: float, action: Callable[[float], object], name: str,
                  clock: Callable[[], float] = time.time) -> None:
-        if not 0 < rate_hz <= 10_000:
-            raise ValueError(f"rate_hz must be in (0, 10000], got {rate_hz!r}")
+        if not 0 < rate_hz <= MAX_RATE_HZ:
+            raise ValueError(f"rate_hz must be in (0, {MAX_RATE_HZ:g}], got {rate_hz!r}")
         self.ticks = 0
         self._period = 1.0 / rate_hz
         self._action = action
