@@ -24,7 +24,7 @@ from contextlib import ExitStack
 import zenoh
 
 from apps.tracking.reception import Reception
-from wiswarm_zenoh.core import Follower, Waypoint, WireError
+from wiswarm_zenoh.core import Waypoint
 from wiswarm_zenoh.core.wire import Control, encode_control, validate_waypoints
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.keys import SwarmKeys
@@ -83,35 +83,6 @@ class PushSender:
         """Stop after the frames already queued (the sentinel goes in behind them)."""
         self._fifo.put(None)
         self._thread.join()
-        self._entities.close()
-
-
-class ControlListener:
-    """UAV side of the control key without a follower node: the core follower decodes
-    the messages and keeps only newer ones; malformed ones are counted and logged."""
-
-    def __init__(self, session: zenoh.Session, swarm: str, uav: str,
-                 on_control: Callable[[list[Waypoint]], None]) -> None:
-        self._core = Follower(uav)
-        self._on_control = on_control
-        self._lock = threading.Lock()
-        self.bad_input = BadInputLog(log)
-        self._entities = ExitStack()
-        self._entities.enter_context(
-            session.declare_subscriber(SwarmKeys(swarm).control, self._on_sample)
-        )
-
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            with self._lock:
-                entry = self._core.on_control(sample.payload.to_bytes())
-        except WireError as exc:
-            self.bad_input.report(str(sample.key_expr), str(exc))
-            return
-        if entry is not None:
-            self._on_control(entry)
-
-    def close(self) -> None:
         self._entities.close()
 
 
