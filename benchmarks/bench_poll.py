@@ -179,7 +179,9 @@ def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[flo
           f"{', '.join(f'{x:.0f}' for x in bare)})   S = {s * 1e3:.3f} ms")
     print(f"  (b) leader loop     {b:8.0f} polls/s   (rounds: "
           f"{', '.join(f'{x:.0f}' for x in leader)})")
-    print(f"  ratio (b)/(a)       {b / a:8.2f}   target >= 0.80")
+    paired = [y / x for x, y in zip(bare, leader, strict=True)]  # rounds back to back
+    print(f"  ratio (b)/(a)       {b / a:8.2f}   target >= 0.80   (round by round: "
+          f"{', '.join(f'{r:.2f}' for r in paired)}; median {statistics.median(paired):.2f})")
     print(f"  mean AoI per follower, last (b) round ({args.policy}); "
           f"round-robin floor S (N/2 + 1) = {floor * 1e3:.2f} ms")
     for record in sorted(stats, key=lambda r: str(r["follower"])):
