@@ -26,16 +26,6 @@ def free_udp_port() -> int:
         return port
 
 
-def wait_for(condition: Callable[[], bool], timeout: float = TIMEOUT) -> bool:
-    """Poll a condition that no event signals (a position reached), with a deadline."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        time.sleep(0.005)
-    return condition()
-
-
 @pytest.fixture
 def port() -> int:
     return free_udp_port()
@@ -57,11 +47,13 @@ def vehicle_at(port: int, x: float, y: float, z: float, yaw_ned: float = 0.0) ->
     return vehicle
 
 
-def test_pose_stamps_frames_in_world_coordinates(port: int, bridge: MavlinkBridge) -> None:
+def test_pose_stamps_frames_in_world_coordinates(
+    port: int, bridge: MavlinkBridge, wait: Callable[..., bool],
+) -> None:
     vehicle = vehicle_at(port, 4.0, 3.0, 2.0, yaw_ned=math.pi / 2)  # facing east
     try:
         assert bridge.wait_connected(TIMEOUT)
-        assert wait_for(lambda: bridge.pose_at(time.time()) is not None)
+        assert wait(lambda: bridge.pose_at(time.time()) is not None)
         pose = bridge.pose_at(time.time())
         assert pose is not None
         assert (pose.x, pose.y, pose.z) == pytest.approx((4.0, 3.0, 2.0), abs=1e-5)
@@ -76,7 +68,7 @@ def test_pose_stamps_frames_in_world_coordinates(port: int, bridge: MavlinkBridg
 
 
 def test_waypoints_arrive_as_setpoints_and_the_vehicle_flies_there(
-    port: int, bridge: MavlinkBridge
+    port: int, bridge: MavlinkBridge, wait: Callable[..., bool],
 ) -> None:
     vehicle = vehicle_at(port, 4.0, 3.0, 2.0)
     try:
@@ -86,20 +78,20 @@ def test_waypoints_arrive_as_setpoints_and_the_vehicle_flies_there(
         assert vehicle.setpoint_arrived.wait(TIMEOUT)
         assert vehicle.target_ned == pytest.approx(world_to_ned(5.0, 3.5, 2.5))
         # once the first waypoint is due, the next one is streamed
-        assert wait_for(lambda: vehicle.target_ned == pytest.approx(world_to_ned(5.5, 3.5, 2.5)))
+        assert wait(lambda: vehicle.target_ned == pytest.approx(world_to_ned(5.5, 3.5, 2.5)))
 
         def arrived() -> bool:
             pose = bridge.pose_at(time.time())
             return pose is not None and math.dist((pose.x, pose.y, pose.z), (5.5, 3.5, 2.5)) < 0.01
 
-        assert wait_for(arrived)
+        assert wait(arrived)
         assert bridge.setpoints_sent >= vehicle.setpoints_received >= 2
     finally:
         vehicle.stop()
 
 
 def test_bad_waypoints_are_refused_and_the_vehicle_holds(
-    port: int, bridge: MavlinkBridge, caplog: pytest.LogCaptureFixture
+    port: int, bridge: MavlinkBridge, caplog: pytest.LogCaptureFixture, wait: Callable[..., bool],
 ) -> None:
     vehicle = vehicle_at(port, 4.0, 3.0, 2.0)
     try:
@@ -111,29 +103,29 @@ def test_bad_waypoints_are_refused_and_the_vehicle_holds(
             assert not bridge.set_waypoints([(time.time() + 1, 4.0, 12.0, 2.0)])
         assert "not finite" in caplog.text and "outside" in caplog.text
         received = vehicle.setpoints_received
-        assert wait_for(lambda: vehicle.setpoints_received >= received + 3)
+        assert wait(lambda: vehicle.setpoints_received >= received + 3)
         assert vehicle.target_ned == pytest.approx(world_to_ned(4.5, 3.0, 2.0))
     finally:
         vehicle.stop()
 
 
 def test_link_drop_is_reported_and_the_link_recovers(
-    port: int, bridge: MavlinkBridge, caplog: pytest.LogCaptureFixture
+    port: int, bridge: MavlinkBridge, caplog: pytest.LogCaptureFixture, wait: Callable[..., bool],
 ) -> None:
     vehicle = vehicle_at(port, 4.0, 3.0, 2.0)
     assert bridge.wait_connected(TIMEOUT)
-    assert wait_for(lambda: bridge.pose_at(time.time()) is not None)
+    assert wait(lambda: bridge.pose_at(time.time()) is not None)
     uav = MavlinkUAV(bridge, Renderer(World(WorldConfig(seed=1, duration_s=10))))
     with caplog.at_level(logging.WARNING):
         vehicle.stop()
-        assert wait_for(lambda: not bridge.connected)
+        assert wait(lambda: not bridge.connected)
     assert "link lost: no heartbeat" in caplog.text
     assert bridge.pose_at(time.time()) is None
     assert uav.capture(time.time()) is None  # no pose, no frame; nothing raises
     again = vehicle_at(port, 6.0, 3.0, 2.0)
     try:
         assert bridge.wait_connected(TIMEOUT)
-        assert wait_for(lambda: (pose := bridge.pose_at(time.time())) is not None
+        assert wait(lambda: (pose := bridge.pose_at(time.time())) is not None
                         and pose.x == pytest.approx(6.0, abs=1e-5))
     finally:
         again.stop()

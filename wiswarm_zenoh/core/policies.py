@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import random
+from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
@@ -35,15 +36,16 @@ class Policy(Protocol):
     def choose_few(self, w: Floats, p: Floats, h: Floats) -> int: ...
 
 
-class IndexPolicy:
+class IndexPolicy(ABC):
     """Polls the follower with the largest index ``index(w, p, h)``, written once for
     floats and arrays alike (numpy's operators on arrays, Python's on floats, in the
     same order: both ways give the same pick)."""
 
     name = ""
 
+    @abstractmethod
     def index(self, w: X, p: X, h: X) -> X:
-        raise NotImplementedError
+        """The index of each follower (larger: poll sooner)."""
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
         return int(np.argmax(self.index(w, p, h)))
