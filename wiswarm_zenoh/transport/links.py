@@ -4,6 +4,7 @@ fresh updates. Declared once at join, so a poll costs no key or route set-up."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import cast
 
 import zenoh
 
@@ -40,6 +41,11 @@ class FollowerLink:
             fresh=session.declare_publisher(keys.fresh(follower)),
         )
         link._listener = link.fresh.declare_matching_listener(link._on_matching)
+        # A subscriber already there counts from the first delivery on: the listener's
+        # first call comes later, from another thread. (The stubs say this property is a
+        # bool; eclipse-zenoh 1.10 returns a MatchingStatus.)
+        status = cast(zenoh.MatchingStatus, link.fresh.matching_status)
+        link.listening = status.matching
         return link
 
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
