@@ -26,6 +26,7 @@ from wiswarm_zenoh.transport.runners import (
     run_leader,
     run_router,
 )
+from wiswarm_zenoh.transport.ticker import MAX_RATE_HZ
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
@@ -36,14 +37,14 @@ from wiswarm_zenoh.transport.zenoh_config import (
 DEFAULT_SWARM = "swarm"
 
 
-def _positive(kind: type[float] | type[int]) -> Any:
+def _positive(kind: type[float] | type[int], most: float = float("inf")) -> Any:
     def parse(text: str) -> float | int:
         try:
             value = kind(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not value > 0:
-            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        if not 0 < value <= most:
+            raise argparse.ArgumentTypeError(f"must be in (0, {most:g}], got {text}")
         return value
 
     return parse
@@ -171,7 +172,7 @@ def register(subparsers: Any) -> None:
     follower.add_argument("--id", required=True, help="this follower's id (a key chunk)")
     follower.add_argument("--queue", choices=["lifo", "fifo"], default="lifo")
     follower.add_argument("--capacity", type=_positive(int), default=1, help="queue capacity")
-    follower.add_argument("--rate", type=_positive(float), default=FRAME_RATE,
+    follower.add_argument("--rate", type=_positive(float, MAX_RATE_HZ), default=FRAME_RATE,
                           help="frames per second (and the FIFO's rate control)")
     follower.add_argument("--fragment-size", type=_positive(int), default=65536,
                           help="bytes per reply (default 65536)")
@@ -187,6 +188,7 @@ def register(subparsers: Any) -> None:
     demo.add_argument("--duration", type=_positive(float), default=20.0, metavar="SECONDS")
     demo.add_argument("--policy", default="whittle", choices=sorted(POLICIES))
     demo.add_argument("--frame-bytes", type=_positive(int), default=FRAME_BYTES)
-    demo.add_argument("--rate", type=_positive(float), default=FRAME_RATE, help="frames/s")
+    demo.add_argument("--rate", type=_positive(float, MAX_RATE_HZ), default=FRAME_RATE,
+                      help="frames/s")
     demo.add_argument("--out", default="runs", help="where run directories go")
     demo.set_defaults(func=_demo)
