@@ -19,6 +19,7 @@ from wiswarm_zenoh.sim.engine import Engine
 from wiswarm_zenoh.sim.medium import Medium, Mpdu, Station
 from wiswarm_zenoh.sim.metrics import FrameSink
 from wiswarm_zenoh.sim.phy import IP_HEADER, TCP_HEADER, Airtime
+from wiswarm_zenoh.sim.push import PushFlow
 from wiswarm_zenoh.sim.source import PeriodicFifo
 
 INITIAL_WINDOW = 10
@@ -28,7 +29,7 @@ RTO_MAX = 60.0
 DELAYED_ACK = 0.04
 
 
-class TcpFlow:
+class TcpFlow(PushFlow):
     """One follower's connection: the sender at its station, the receiver at the leader."""
 
     def __init__(
@@ -43,13 +44,8 @@ class TcpFlow:
         p_success: float,
         sink: FrameSink,
     ) -> None:
-        self._engine = engine
-        self._medium = medium
-        self._station = station
+        super().__init__(engine, medium, station, fifo, p_success, sink)
         self._leader = leader
-        self._fifo = fifo
-        self._p = p_success
-        self._sink = sink
         mss = airtime.tcp_mss
         self._frame_segments = -(-frame_bytes // mss)
         last = frame_bytes - (self._frame_segments - 1) * mss

@@ -14,10 +14,11 @@ from wiswarm_zenoh.sim.engine import Engine
 from wiswarm_zenoh.sim.medium import Medium, Mpdu, Station
 from wiswarm_zenoh.sim.metrics import FrameSink
 from wiswarm_zenoh.sim.phy import Airtime
+from wiswarm_zenoh.sim.push import PushFlow
 from wiswarm_zenoh.sim.source import PeriodicFifo
 
 
-class UdpPush:
+class UdpPush(PushFlow):
     """One follower pushing its FIFO of frames to the leader over UDP."""
 
     def __init__(
@@ -31,13 +32,8 @@ class UdpPush:
         p_success: float,
         sink: FrameSink,
     ) -> None:
-        self._engine = engine
-        self._medium = medium
-        self._station = station
-        self._fifo = fifo
+        super().__init__(engine, medium, station, fifo, p_success, sink)
         self._busy = [airtime.unicast_busy(size) for size in airtime.udp_packets(frame_bytes)]
-        self._p = p_success
-        self._sink = sink
         self._frame = -1
         self._gen = 0.0
         self._next_packet = len(self._busy)
