@@ -8,12 +8,12 @@ from wiswarm_zenoh.core.queues import RateController, Update, UpdateQueue
 from wiswarm_zenoh.core.wire import (
     MAX_ID_BYTES,
     Poll,
-    Reply,
     Waypoint,
     decode_control,
     decode_poll,
-    encode_reply,
     id_fits,
+    pack_reply,
+    reply_prefix,
 )
 
 
@@ -42,6 +42,7 @@ class Follower:
         self._sending: OutgoingUpdate | None = None
         self._control_key: tuple[float, int] | None = None
         self._chunk = self.config.fragment_size - FRAGMENT_HEADER_BYTES  # payload bytes
+        self._reply_prefix = reply_prefix(follower_id)
 
     def offer(self, payload: bytes, now: float) -> bool:
         """Time-stamp an update with ``now`` and queue it; False if it was dropped."""
@@ -70,8 +71,8 @@ class Follower:
         if self._sending is not None:
             self._apply_ack(self._sending, poll)
         outgoing = self._current()
-        return encode_reply(Reply(self.follower_id, poll.seq, received_at, now,
-                                  None if outgoing is None else outgoing.fragment()))
+        return pack_reply(self._reply_prefix, poll.seq, received_at, now,
+                          None if outgoing is None else outgoing.fragment())
 
     def _apply_ack(self, sending: OutgoingUpdate, poll: Poll) -> None:
         if poll.want == "fresh":

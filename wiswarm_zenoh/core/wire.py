@@ -9,69 +9,40 @@ from __future__ import annotations
 import math
 import zlib
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any, Literal, NoReturn
+from typing import Any, NoReturn
 
 import msgpack
 
 from wiswarm_zenoh.core.errors import WireError
+from wiswarm_zenoh.core.fixed_layout import (
+    pack_poll,
+    pack_reply,
+    reply_prefix,
+    unpack_poll,
+    unpack_reply,
+)
+from wiswarm_zenoh.core.messages import (
+    MAX_CONTROL_ENTRIES,
+    MAX_ID_BYTES,
+    MAX_INT,
+    MAX_SIZE,
+    MAX_WAYPOINTS,
+    UINT32,
+    VERSION,
+    Control,
+    FragmentData,
+    Poll,
+    Reply,
+    Want,
+    Waypoint,
+)
 
-VERSION = 1
-MAX_ID_BYTES = 128  # UTF-8
-MAX_WAYPOINTS = 256
-MAX_CONTROL_ENTRIES = 100_000
-UINT32 = 0xFFFFFFFF
-MAX_INT = 2**63 - 1
-MAX_SIZE = 2**40  # bytes of one update, as the wire allows (configs set tighter limits)
-
-Waypoint = tuple[float, float, float, float]  # (t, x, y, z)
-Want = Literal["next", "fresh"]
-
-
-# Poll, FragmentData and Reply are built on every poll: not frozen, since a frozen
-# dataclass costs several times more to build (each field through object.__setattr__).
-@dataclass(slots=True)
-class Poll:
-    """The leader's request: which poll this is, when it left, and what arrived last."""
-
-    seq: int
-    leader_time: float
-    ack: tuple[int, int] | None  # (update seq, fragment index) last received from this follower
-    want: Want = "next"
-
-
-@dataclass(slots=True)
-class FragmentData:
-    """One piece of one update, with what the leader needs to check the whole."""
-
-    update_seq: int
-    generated_at: float  # follower clock
-    index: int
-    count: int
-    total_size: int
-    checksum: int  # CRC-32 of the whole update
-    data: bytes
-
-
-@dataclass(slots=True)
-class Reply:
-    """A follower's answer to one poll; ``fragment`` is None for "nothing new"."""
-
-    follower: str
-    poll_seq: int
-    received_at: float  # follower clock, when the poll arrived
-    sent_at: float  # follower clock, when this reply left
-    fragment: FragmentData | None
-
-
-@dataclass(frozen=True, slots=True)
-class Control:
-    """Latest control information for every follower, broadcast with each poll."""
-
-    seq: int
-    leader_time: float
-    entries: Mapping[str, Sequence[Waypoint]]
-
+__all__ = [
+    "MAX_ID_BYTES", "MAX_WAYPOINTS", "UINT32", "Control", "FragmentData", "Poll", "Reply",
+    "Want", "Waypoint", "checksum", "decode_control", "decode_poll", "decode_reply",
+    "encode_control", "encode_control_packed", "encode_poll", "encode_reply", "id_fits",
+    "pack_entries", "pack_reply", "reply_prefix", "validate_waypoints",
+]
 
 # The checksum a fragment carries: CRC-32 of the whole update (Python's is unsigned).
 checksum: Callable[[bytes], int] = zlib.crc32
@@ -134,13 +105,16 @@ def _ident(value: object, what: str) -> str:
 
 
 def encode_poll(poll: Poll) -> bytes:
-    return _pack(
-        {"v": VERSION, "t": "poll", "seq": poll.seq, "lt": poll.leader_time,
-         "ack": list(poll.ack) if poll.ack is not None else None, "want": poll.want}
-    )
+    return pack_poll(poll)
 
 
 def decode_poll(data: bytes) -> Poll:
+    """A poll in the fixed layout the leader sends, or else in any valid encoding."""
+    poll = unpack_poll(data) if type(data) is bytes else None
+    return _decode_poll_any(data) if poll is None else poll
+
+
+def _decode_poll_any(data: bytes) -> Poll:
     obj = _unpack(data, "poll")
     seq, lt = obj.get("seq"), obj.get("lt")
     if type(seq) is not int or not 0 <= seq <= MAX_INT:
@@ -165,15 +139,8 @@ def decode_poll(data: bytes) -> Poll:
 
 
 def encode_reply(reply: Reply) -> bytes:
-    frag = reply.fragment
-    body = None if frag is None else {
-        "u": frag.update_seq, "g": frag.generated_at, "i": frag.index, "n": frag.count,
-        "size": frag.total_size, "crc": frag.checksum, "data": frag.data,
-    }
-    return _pack(
-        {"v": VERSION, "t": "reply", "from": reply.follower, "poll": reply.poll_seq,
-         "rt": reply.received_at, "st": reply.sent_at, "frag": body}
-    )
+    return pack_reply(reply_prefix(reply.follower), reply.poll_seq, reply.received_at,
+                      reply.sent_at, reply.fragment)
 
 
 def _decode_fragment(body: object) -> FragmentData:
@@ -207,6 +174,12 @@ def _fragment_error(body: dict[str, Any], data: bytes) -> NoReturn:
 
 
 def decode_reply(data: bytes) -> Reply:
+    """A reply in the fixed layout followers send, or else in any valid encoding."""
+    reply = unpack_reply(data) if type(data) is bytes else None
+    return _decode_reply_any(data) if reply is None else reply
+
+
+def _decode_reply_any(data: bytes) -> Reply:
     obj = _unpack(data, "reply")
     sender, seq, rt, st = obj.get("from"), obj.get("poll"), obj.get("rt"), obj.get("st")
     if type(sender) is not str or not 0 < len(sender) <= SHORT_ID:

@@ -1,0 +1,181 @@
+"""The fixed layout of polls and replies: it reads back what it wrote, it never accepts
+bytes the strict general decoder refuses or reads differently, and anything else still
+goes through the general decoder."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from typing import Any
+
+import msgpack
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from wiswarm_zenoh.core import WireError
+from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
+from wiswarm_zenoh.core.fixed_layout import unpack_poll, unpack_reply
+from wiswarm_zenoh.core.messages import MAX_ID_BYTES, MAX_INT, MAX_SIZE, UINT32
+from wiswarm_zenoh.core.wire import (
+    FragmentData,
+    Poll,
+    Reply,
+    _decode_poll_any,
+    _decode_reply_any,
+    decode_poll,
+    decode_reply,
+    encode_poll,
+    encode_reply,
+)
+
+EXAMPLES = settings(max_examples=300, derandomize=True, deadline=None)
+UINT64 = 2**64 - 1
+finite = st.floats(allow_nan=False, allow_infinity=False)
+seqs = st.integers(0, MAX_INT)
+ids = st.text(st.characters(codec="utf-8"), min_size=1, max_size=MAX_ID_BYTES // 4)
+polls = st.builds(Poll, seqs, finite, st.none() | st.tuples(seqs, st.integers(0, UINT32)),
+                  st.sampled_from(["next", "fresh"]))
+
+
+@st.composite
+def fragments(draw: st.DrawFn) -> FragmentData:
+    count = draw(st.integers(1, UINT32))
+    data = draw(st.binary(max_size=64))
+    return FragmentData(draw(seqs), draw(finite), draw(st.integers(0, count - 1)), count,
+                        draw(st.integers(len(data), MAX_SIZE)), draw(st.integers(0, UINT32)),
+                        data)
+
+
+replies = st.builds(Reply, ids, seqs, finite, finite, st.none() | fragments())
+mutations = (st.integers(0, 10**6), st.integers(0, 2), st.integers(0, 255))
+
+Decoder = Callable[[bytes], Any]
+
+
+def _same_verdict(fast: Decoder, strict: Decoder, data: bytes, *, exact_layout: bool) -> None:
+    """``fast`` accepts only what ``strict`` accepts, and reads the same; on bytes in the
+    exact layout it also accepts everything ``strict`` accepts."""
+    got = fast(data)
+    try:
+        expected = strict(data)
+    except WireError:
+        assert got is None
+        return
+    if got is not None or exact_layout:
+        assert got == expected
+
+
+def _mutated(data: bytes, where: int, how: int, value: int) -> bytes:
+    where %= len(data) + 1
+    if how == 0:  # change one byte
+        where %= len(data)
+        return data[:where] + bytes([value]) + data[where + 1:]
+    if how == 1:  # cut short
+        return data[:where]
+    return data[:where] + bytes([value]) + data[where:]  # one byte too many
+
+
+@EXAMPLES
+@given(polls)
+def test_valid_polls_read_back_the_same_either_way(poll: Poll) -> None:
+    _same_verdict(unpack_poll, _decode_poll_any, encode_poll(poll), exact_layout=True)
+
+
+@EXAMPLES
+@given(replies)
+def test_valid_replies_read_back_the_same_either_way(reply: Reply) -> None:
+    _same_verdict(unpack_reply, _decode_reply_any, encode_reply(reply), exact_layout=True)
+
+
+@EXAMPLES
+@given(polls, *mutations)
+def test_damaged_polls_are_never_read_otherwise_than_by_the_strict_decoder(
+        poll: Poll, where: int, how: int, value: int) -> None:
+    data = _mutated(encode_poll(poll), where, how, value)
+    _same_verdict(unpack_poll, _decode_poll_any, data, exact_layout=False)
+
+
+@EXAMPLES
+@given(replies, *mutations)
+def test_damaged_replies_are_never_read_otherwise_than_by_the_strict_decoder(
+        reply: Reply, where: int, how: int, value: int) -> None:
+    data = _mutated(encode_reply(reply), where, how, value)
+    _same_verdict(unpack_reply, _decode_reply_any, data, exact_layout=False)
+
+
+@pytest.mark.parametrize("poll", [Poll(0, 0.0, None), Poll(MAX_INT, -1.5, (MAX_INT, UINT32),
+                                                          "fresh")])
+def test_the_fast_path_reads_what_the_leader_sends(poll: Poll) -> None:
+    assert unpack_poll(encode_poll(poll)) == poll
+
+
+def test_the_shortest_msgpack_encoding_goes_through_the_general_decoder() -> None:
+    """A follower written in another language packs the same maps its own way."""
+    poll = {"v": 1, "t": "poll", "seq": 5, "lt": 2.5, "ack": [3, 0], "want": "next"}
+    reply = {"v": 1, "t": "reply", "from": "uav1", "poll": 5, "rt": 1.0, "st": 1.5,
+             "frag": {"u": 3, "g": 0.5, "i": 0, "n": 1, "size": 3, "crc": 7, "data": b"abc"}}
+    poll_bytes = msgpack.packb(poll, use_bin_type=True)
+    reply_bytes = msgpack.packb(reply, use_bin_type=True)
+    assert unpack_poll(poll_bytes) is None
+    assert unpack_reply(reply_bytes) is None
+    assert decode_poll(poll_bytes) == Poll(5, 2.5, (3, 0), "next")
+    assert decode_reply(reply_bytes) == Reply(
+        "uav1", 5, 1.0, 1.5, FragmentData(3, 0.5, 0, 1, 3, 7, b"abc"))
+
+
+FRAG = FragmentData(3, 0.5, 1, 2, 100, 7, b"abc")
+TOO_BIG = MAX_INT + 1  # fits the layout's uint64, not the protocol
+# One field at a time given a value that its width holds but the protocol forbids.
+BAD_POLLS = [Poll(TOO_BIG, 1.0, None), Poll(1, 1.0, (TOO_BIG, 0), "fresh")] + [
+    Poll(1, bad, None) for bad in (math.nan, math.inf, -math.inf)]
+BAD_REPLIES = [
+    Reply("uav1", TOO_BIG, 0.0, 0.0, None),
+    Reply("uav1", 1, math.nan, 0.0, FRAG),
+    Reply("uav1", 1, 0.0, math.inf, None),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, update_seq=TOO_BIG)),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, generated_at=-math.inf)),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, index=2)),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, count=0, index=0)),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, total_size=2)),
+    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, total_size=MAX_SIZE + 1)),
+]
+
+
+@pytest.mark.parametrize("poll", BAD_POLLS)
+def test_a_poll_with_a_forbidden_value_is_left_to_the_strict_decoder(poll: Poll) -> None:
+    data = encode_poll(poll)
+    assert unpack_poll(data) is None
+    with pytest.raises(WireError):
+        decode_poll(data)
+
+
+@pytest.mark.parametrize("reply", BAD_REPLIES)
+def test_a_reply_with_a_forbidden_value_is_left_to_the_strict_decoder(reply: Reply) -> None:
+    data = encode_reply(reply)
+    assert unpack_reply(data) is None
+    with pytest.raises(WireError):
+        decode_reply(data)
+
+
+def test_a_reply_whose_data_length_disagrees_is_left_to_the_strict_decoder() -> None:
+    data = encode_reply(Reply("uav1", 1, 0.0, 0.0, FRAG))
+    for damaged in (data[:-1], data + b"x"):
+        assert unpack_reply(damaged) is None
+        with pytest.raises(WireError):
+            decode_reply(damaged)
+
+
+@pytest.mark.parametrize("length", [0, MAX_ID_BYTES + 1])
+def test_a_sender_id_of_a_forbidden_length_is_left_to_the_strict_decoder(length: int) -> None:
+    data = encode_reply(Reply("x" * length, 1, 0.0, 0.0, None))
+    assert unpack_reply(data) is None
+    with pytest.raises(WireError):
+        decode_reply(data)
+
+
+def test_the_reply_header_fits_the_room_left_for_it_in_a_fragment() -> None:
+    frag = FragmentData(MAX_INT, 1.0, UINT32 - 1, UINT32, 2**40, UINT32, b"")
+    longest = "\u00e9" * (MAX_ID_BYTES // 2)  # two UTF-8 bytes each
+    assert len(encode_reply(Reply(longest, MAX_INT, 1.0, 1.0, frag))) <= FRAGMENT_HEADER_BYTES
