@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import random
+import zlib
 from collections.abc import Callable
 from typing import Any
 
@@ -18,6 +20,7 @@ from wiswarm_zenoh.core.wire import (
     FragmentData,
     Poll,
     Reply,
+    checksum,
     decode_control,
     decode_poll,
     decode_reply,
@@ -201,3 +204,10 @@ def test_waypoint_validation_for_the_caller() -> None:
     for bad in ([(0.0, 0.0, 0.0)], [(0.0, 0.0, 0.0, math.inf)]):
         with pytest.raises(ValueError, match="4 finite"):
             validate_waypoints(bad)
+
+
+@pytest.mark.parametrize("size", [0, 1, 63, 64, 4095, 50176, 200_003])
+def test_the_checksum_is_the_standard_crc32(size: int) -> None:
+    """Any other implementation (a follower in C, a capture in Wireshark) must agree."""
+    data = random.Random(size).randbytes(size)
+    assert checksum(data) == zlib.crc32(data)
