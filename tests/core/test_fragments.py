@@ -8,7 +8,7 @@ import pytest
 
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.errors import WireError
-from wiswarm_zenoh.core.fragments import OutgoingUpdate, Reassembler, checksum
+from wiswarm_zenoh.core.fragments import OutgoingUpdate, Reassembler, checksum, verify_checksum
 from wiswarm_zenoh.core.queues import Update
 from wiswarm_zenoh.core.wire import FragmentData
 
@@ -87,16 +87,20 @@ def test_reassembler_starts_over_on_a_fragment_of_another_update() -> None:
     assert r2.add(new[2]) == b"".join(f.data for f in new)
 
 
-def test_reassembler_rejects_a_checksum_mismatch_and_recovers() -> None:
+def test_a_damaged_fragment_fails_the_checksum_and_the_next_collection_starts_clean() -> None:
     frags = _all_fragments(_outgoing(30, 10))
     bad = dataclasses.replace(frags[1], data=b"X" * 10)
     r = Reassembler(100, 1000)
     r.add(frags[0])
     r.add(bad)
+    whole = r.add(frags[2])
+    assert whole is not None
     with pytest.raises(WireError, match="checksum"):
-        r.add(frags[2])
+        verify_checksum(whole, frags[2])
     assert all(r.add(f) is None for f in frags[:2])
-    assert r.add(frags[2]) == b"".join(f.data for f in frags)
+    whole = r.add(frags[2])
+    assert whole == b"".join(f.data for f in frags)
+    verify_checksum(whole, frags[2])
 
 
 def test_reassembler_rejects_size_mismatches() -> None:

@@ -7,7 +7,7 @@ from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.queues import Update
 from wiswarm_zenoh.core.wire import FragmentData, checksum
 
-__all__ = ["OutgoingUpdate", "Reassembler", "checksum"]
+__all__ = ["OutgoingUpdate", "Reassembler", "checksum", "verify_checksum"]
 
 
 class OutgoingUpdate:
@@ -50,8 +50,9 @@ class Reassembler:
     """Collects one follower's fragments of its current update and checks the whole.
 
     A fragment of a different update starts over (the follower abandoned the old one or
-    restarted); duplicates are ignored; a mismatch of count, size or checksum raises
-    ``WireError`` and drops what was collected.
+    restarted); duplicates are ignored; a mismatch of count or size raises ``WireError``
+    and drops what was collected. The whole update's checksum is ``verify_checksum``'s
+    job: a leader runs it once the next poll is on its way.
     """
 
     def __init__(self, max_fragments: int, max_update_bytes: int) -> None:
@@ -67,7 +68,8 @@ class Reassembler:
         self._size = 0
 
     def add(self, frag: FragmentData) -> bytes | None:
-        """Store a fragment; return the whole update once every fragment is in."""
+        """Store a fragment; return the whole update (its checksum not yet verified)
+        once every fragment is in."""
         if frag.count > self.max_fragments:
             raise WireError(f"{frag.count} fragments exceed the limit of {self.max_fragments}")
         if frag.total_size > self.max_update_bytes:
@@ -77,7 +79,7 @@ class Reassembler:
         if frag.count == 1:  # the whole update in one piece: nothing to collect
             if self._key is not None:
                 self.reset()
-            return _checked(frag.data, frag)
+            return _sized(frag.data, frag)
         key = (frag.update_seq, frag.count, frag.checksum, frag.generated_at)
         if key != self._key:
             self.reset()
@@ -93,13 +95,17 @@ class Reassembler:
             return None
         whole = b"".join(self._parts[i] for i in range(frag.count))
         self.reset()
-        return _checked(whole, frag)
+        return _sized(whole, frag)
 
 
-def _checked(whole: bytes, frag: FragmentData) -> bytes:
-    """The reassembled update, if its size and checksum match what the fragments say."""
+def _sized(whole: bytes, frag: FragmentData) -> bytes:
+    """The reassembled update, if its size matches what the fragments say."""
     if len(whole) != frag.total_size:
         raise WireError(f"reassembled {len(whole)} bytes, expected {frag.total_size}")
+    return whole
+
+
+def verify_checksum(whole: bytes, frag: FragmentData) -> None:
+    """Raise ``WireError`` unless ``whole`` has the checksum its fragments carry."""
     if checksum(whole) != frag.checksum:
         raise WireError("checksum mismatch on the reassembled update")
-    return whole

@@ -11,6 +11,7 @@ import numpy as np
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
+from wiswarm_zenoh.core.fragments import verify_checksum
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.policies import make_policy
 from wiswarm_zenoh.core.wire import (
@@ -51,6 +52,19 @@ class PollRequest:
         return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries)
 
 
+@dataclass(slots=True)
+class Unsettled:
+    """A valid reply already counted for the scheduler, with what ``settle`` still does:
+    the clock sample, and the update's checksum and delivery."""
+
+    follower: str
+    peer: Peer
+    reply: Reply
+    poll_sent_at: float
+    whole: bytes | None  # a complete update, or None (a part, or nothing new)
+    now: float
+
+
 class Leader:
     """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
 
@@ -58,6 +72,12 @@ class Leader:
     tells ``finish_poll`` when no more replies can come, and fires ``on_timer`` at
     ``next_timer()``. Bad bytes never raise: they come back as ``Rejected`` events and
     are counted against the follower.
+
+    A shell in a hurry takes a reply in two steps: ``accept_reply`` does what choosing
+    the next poll needs (the poll's outcome, the follower's new freshness), ``settle``
+    the rest (checksum, AoI, the ``Delivered`` event), once the next poll is on its way.
+    An update whose checksum then fails is rejected and its freshness withdrawn. Any
+    call to ``accept_reply`` settles the reply before it first, so nothing is lost.
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None):
@@ -72,6 +92,7 @@ class Leader:
         self._in_flight: PollRequest | None = None
         self._waypoints: dict[str, list[Waypoint]] = {}
         self._packed_control: bytes | None = None  # cache of the packed entries
+        self._unsettled: Unsettled | None = None
 
     @property
     def followers(self) -> list[str]:
@@ -97,6 +118,8 @@ class Leader:
             return
         if self._in_flight is not None and self._in_flight.follower == follower:
             self._in_flight = None
+        if self._unsettled is not None and self._unsettled.follower == follower:
+            self._unsettled = None
         self.table.remove(follower)
         if self._waypoints.pop(follower, None) is not None:
             self._packed_control = None
@@ -199,44 +222,81 @@ class Leader:
 
     def on_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
         """Consume one reply from ``follower`` (the key it came from)."""
+        events = self.accept_reply(follower, data, now)
+        events.extend(self.settle())
+        return events
+
+    def accept_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
+        """The first step of ``on_reply``: enough for ``poll`` to choose well."""
+        events = self.settle()
         peer = self.table.peers.get(follower)
         if peer is None:
             self.unknown_replies += 1
-            return [Stale(follower, "reply from a follower that is not a member")]
+            events.append(Stale(follower, "reply from a follower that is not a member"))
+            return events
         try:
             reply = decode_reply(data)
         except WireError as exc:
             peer.errors += 1
-            return [Rejected(follower, str(exc))]
+            events.append(Rejected(follower, str(exc)))
+            return events
         flight = self._in_flight
         if flight is None or flight.follower != follower or reply.poll_seq != flight.poll_seq:
             peer.stale += 1
-            return [Stale(follower, f"reply to poll {reply.poll_seq}, not the one in flight")]
+            events.append(Stale(follower, f"reply to poll {reply.poll_seq}, not the one in flight"))
+            return events
         if reply.follower != follower:
             peer.errors += 1
-            return [Rejected(follower, f"reply claims to come from {reply.follower!r}")]
+            events.append(Rejected(follower, f"reply claims to come from {reply.follower!r}"))
+            return events
         self._complete(flight, peer, answered=True, now=now)
-        peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
-        events = self._take_fragment(follower, peer, reply, now)
+        whole = self._take_fragment(follower, peer, reply, now, events)
+        self._unsettled = Unsettled(follower, peer, reply, flight.sent_at, whole, now)
         self.table.sync(follower)
         return events
 
-    def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float) -> list[Event]:
+    def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float,
+                       events: list[Event]) -> bytes | None:
+        """Collect the reply's fragment; the whole update if it completes one."""
         frag = reply.fragment
         if frag is None:
             peer.idle_since = now
-            return []
+            return None
         try:
             whole = peer.reassembler.add(frag)
         except WireError as exc:
             peer.errors += 1
             peer.ack, peer.want = None, "fresh"
-            return [Rejected(follower, str(exc))]
+            events.append(Rejected(follower, str(exc)))
+            return None
         peer.ack, peer.want = (frag.update_seq, frag.index), "next"
-        if whole is None:
+        if whole is not None:
+            peer.unsettled_tau = peer.clock.to_leader(frag.generated_at)
+        return whole
+
+    def settle(self) -> list[Event]:
+        """The second step of ``on_reply`` for the reply accepted last (if any)."""
+        unsettled, self._unsettled = self._unsettled, None
+        if unsettled is None:
             return []
+        peer, reply, now = unsettled.peer, unsettled.reply, unsettled.now
+        peer.clock.add(unsettled.poll_sent_at, reply.received_at, reply.sent_at, now)
+        whole, frag = unsettled.whole, reply.fragment
+        if whole is None or frag is None:
+            return []
+        follower = unsettled.follower
+        peer.unsettled_tau = float("-inf")
+        try:
+            verify_checksum(whole, frag)
+        except WireError as exc:
+            peer.errors += 1
+            peer.ack, peer.want = None, "fresh"
+            self.table.sync(follower)
+            return [Rejected(follower, str(exc))]
         generated_at = peer.clock.to_leader(frag.generated_at)
-        if not peer.aoi.deliver(generated_at, now):
+        delivered = peer.aoi.deliver(generated_at, now)
+        self.table.sync(follower)
+        if not delivered:
             peer.stale += 1
             return [Stale(follower, "update older than the freshest delivered")]
         return [Delivered(follower, whole, generated_at, now - generated_at, frag.update_seq)]

@@ -54,6 +54,7 @@ class Peer:
     reassembler: Reassembler
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
+    unsettled_tau: float = float("-inf")  # an update taken, its checksum not verified yet
     probe_at: float = float("-inf")  # when a silent follower may be probed next
     probe_gap: float = 0.0  # the current back-off between probes (0: not silent)
     want: Want = "next"
@@ -87,9 +88,10 @@ class Peer:
 
     @property
     def policy_tau(self) -> float:
-        """What the scheduler ages this follower from: its freshest delivery, or the last
-        time it had nothing newer to send (polling it sooner cannot lower its age)."""
-        return max(self.aoi.tau, self.idle_since)
+        """What the scheduler ages this follower from: its freshest delivery (counting one
+        taken but not yet settled), or the last time it had nothing newer to send
+        (polling it sooner cannot lower its age)."""
+        return max(self.aoi.tau, self.idle_since, self.unsettled_tau)
 
     def restart(self) -> None:
         """The follower came back (new process): forget its transfer state and clock."""

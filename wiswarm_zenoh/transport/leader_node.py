@@ -7,9 +7,12 @@ The poll is over as soon as the core takes a valid reply, and the loop moves on 
 Zenoh's closing of that ``get`` (the follower's final message) is not waited for; the
 ``get`` is kept open aside, and whatever else it brings (a second queryable on the
 key, say) is handed to the core later, which counts it as stale or rejected. Only if
-Zenoh closes the ``get`` with no valid reply (the timeout) is the core told so. A
-delivery is handed on (``fresh`` re-publication, ``on_delivery``) right after the next
-poll is sent, so that it overlaps that poll's round trip.
+Zenoh closes the ``get`` with no valid reply (the timeout) is the core told so.
+
+Between a reply and the next poll the loop does only what choosing that poll needs: the
+core's ``accept_reply``. The rest (``settle``: checksum, AoI, the delivery) and handing
+the delivery on (``fresh`` re-publication, ``on_delivery``) run right after the next
+poll is sent, so that they overlap its round trip.
 """
 
 from __future__ import annotations
@@ -183,7 +186,7 @@ class LeaderNode:
                     request = self._leader.poll(now)
                     version = self._control_version
                 if request is None:
-                    self._hand_over()
+                    self._settle()
                     self._wake.wait(max(0.0, self._next_stats - now))
                     self._wake.clear()
                     continue
@@ -193,21 +196,20 @@ class LeaderNode:
                     self._control_sent = (version, now)
                 self._poll(self._links[request.follower], request.payload)
         finally:
-            self._hand_over()
+            self._settle()
 
     def _poll(self, link: FollowerLink, payload: bytes) -> None:
         """Send one poll and hand its replies to the core until one completes it (the
         get is then kept aside, see the module's docstring) or Zenoh closes the get."""
         replies = link.querier.get(payload=payload)
-        if self._delivered:  # the last poll's, while this one is on its way
-            self._hand_over()
+        self._settle()  # the last poll's, while this one is on its way
         for reply in replies:
             if self._take(link, reply):
                 self._late.append((link, replies))
                 return
         with self._lock:  # closed with no valid reply: the core counts the poll unanswered
             events = self._leader.finish_poll(self._clock())
-        self._dispatch(events, link.key)
+        self._dispatch(events)
 
     def _take(self, link: FollowerLink, reply: zenoh.Reply) -> bool:
         """Hand one reply to the core; True if it completed the poll in flight."""
@@ -225,11 +227,20 @@ class LeaderNode:
             self.bad_input.report(link.key, f"reply of {len(payload)} bytes exceeds the limit")
             return False
         with self._lock:
-            events = self._leader.on_reply(link.follower, payload.to_bytes(), now)
+            events = self._leader.accept_reply(link.follower, payload.to_bytes(), now)
             done = self._leader.in_flight is None
         if events:
-            self._dispatch(events, link.key)
+            self._dispatch(events)
         return done
+
+    def _settle(self) -> None:
+        """The core's second step for the last reply, and its delivery handed on."""
+        with self._lock:
+            events = self._leader.settle()
+        if events:
+            self._dispatch(events)
+        if self._delivered:
+            self._hand_over()
 
     def _drain_late(self) -> None:
         """Replies still coming to gets whose poll is over, without waiting for any:
@@ -244,13 +255,13 @@ class LeaderNode:
             open_gets.append((link, replies))
         self._late = open_gets
 
-    def _dispatch(self, events: list[Event], key: str) -> None:
+    def _dispatch(self, events: list[Event]) -> None:
         """Report bad input now; keep deliveries for ``_hand_over``."""
         for event in events:
             if isinstance(event, Delivered):
                 self._delivered.append(event)
             elif isinstance(event, Rejected | Stale):
-                self.bad_input.report(key, event.reason)
+                self.bad_input.report(self.keys.update(event.follower), event.reason)
             else:
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
 
@@ -294,7 +305,8 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
-        self._drain_late()  # so that the stats count every late reply so far
+        self._drain_late()  # so that the stats count every late reply so far,
+        self._settle()  # and the last delivery
         with self._lock:
             records = [
                 follower_stats(self._leader.stats(f, now), self._transport_errors[f])
