@@ -6,6 +6,8 @@ import random
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from wiswarm_zenoh.core.policies import (
     LINEAR_COST,
@@ -129,3 +131,17 @@ def test_every_policy_picks_a_valid_index_on_large_random_arrays(name: str) -> N
     for n in (1, 2, 1000):
         w, p, h = gen.uniform(0.1, 5, n), gen.uniform(0.05, 1, n), gen.uniform(0, 50, n)
         assert 0 <= policy.choose(w, p, h) < n
+
+
+small = st.integers(0, 4).map(float)  # few distinct values: ties are common
+
+
+@settings(max_examples=300, derandomize=True, deadline=None)
+@given(st.sampled_from(["whittle", "whittle-exact", "max-weight", "max-age", "power-2"]),
+       st.lists(st.tuples(small, small.map(lambda v: (v + 1) / 5), small), min_size=1,
+                max_size=20))
+def test_the_plain_float_path_picks_what_the_numpy_path_picks(
+        name: str, rows: list[tuple[float, float, float]]) -> None:
+    policy = Whittle(power_cost(2.0)) if name == "power-2" else make_policy(name)
+    w, p, h = (list(column) for column in zip(*rows, strict=True))
+    assert policy.choose_few(w, p, h) == policy.choose(_a(*w), _a(*p), _a(*h))

@@ -228,7 +228,7 @@ class Leader:
 
     def accept_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
         """The first step of ``on_reply``: enough for ``poll`` to choose well."""
-        events = self.settle()
+        events = [] if self._unsettled is None else self.settle()
         peer = self.table.peers.get(follower)
         if peer is None:
             self.unknown_replies += 1

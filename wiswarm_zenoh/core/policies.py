@@ -96,6 +96,13 @@ class Whittle(IndexPolicy):
         general: X = 2.0 * w * p * (h * cost.f(h) - cost.integral(h))
         return general
 
+    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+        if self.cost is not LINEAR_COST:
+            return super().choose_few(w, p, h)
+        # The paper's index in one comprehension: no call per follower on every poll.
+        values = [wi * pi * hi * hi for wi, pi, hi in zip(w, p, h, strict=True)]
+        return values.index(max(values))  # the first of equals, as np.argmax
+
 
 class WhittleExact(IndexPolicy):
     """Kadota et al.'s exact index for the slotted model: ``w p h (h + 2/p - 1) / 2``.

@@ -175,8 +175,6 @@ class LeaderNode:
     def _run(self) -> None:
         try:
             while not self._stop.is_set():
-                if len(self._late) >= LATE_BATCH:
-                    self._drain_late()
                 if self._changes:
                     self._apply_changes()
                 now = self._clock()
@@ -203,6 +201,8 @@ class LeaderNode:
         get is then kept aside, see the module's docstring) or Zenoh closes the get."""
         replies = link.querier.get(payload=payload)
         self._settle()  # the last poll's, while this one is on its way
+        if len(self._late) >= LATE_BATCH:
+            self._drain_late()
         for reply in replies:
             if self._take(link, reply):
                 self._late.append((link, replies))
