@@ -6,7 +6,7 @@ import json
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import zenoh
 
@@ -99,3 +99,21 @@ class Samples:
              timeout: float = WAIT) -> None:
         with self.cond:
             assert self.cond.wait_for(lambda: predicate(self), timeout), f"timed out: {what}"
+
+
+def wait_until_known(session: zenoh.Session, key: str) -> None:
+    """Until ``session`` knows of a subscriber to ``key``: declarations travel through
+    the router, and a put made before reaches nobody (``fresh`` is not even sent)."""
+    known = threading.Event()
+    publisher = session.declare_publisher(key)
+    listener = publisher.declare_matching_listener(
+        zenoh.handlers.Callback(lambda status: status.matching and known.set(), indirect=False)
+    )
+    status = cast(zenoh.MatchingStatus, publisher.matching_status)  # the stubs say bool
+    if status.matching:
+        known.set()
+    try:
+        assert known.wait(WAIT), f"no subscriber to {key} reached this session"
+    finally:
+        listener.undeclare()
+        publisher.undeclare()

@@ -10,7 +10,7 @@ import zenoh
 
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 
-from .helpers import Recorder, Samples, Sessions
+from .helpers import Recorder, Samples, Sessions, wait_until_known
 
 SWARM = "s"
 FOLLOWER_FIELDS = {"follower", "aoi_s", "mean_aoi_s", "p95_aoi_s", "p_hat", "weight", "polls",
@@ -24,10 +24,12 @@ def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
     follower = FollowerNode(sessions.node(port), SWARM, "uav1")
     watch = Samples(sessions.node(port), f"wiswarm/{SWARM}/**")
     update = os.urandom(3000)
-    with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()):
+    leader_session = sessions.node(port)
+    fresh_key = f"wiswarm/{SWARM}/uav1/fresh"
+    stats_key = f"wiswarm/{SWARM}/uav1/stats"
+    with LeaderNode(leader_session, SWARM, **recorder.callbacks()):
         recorder.wait("join", lambda r: bool(r.joins))
-        fresh_key = f"wiswarm/{SWARM}/uav1/fresh"
-        stats_key = f"wiswarm/{SWARM}/uav1/stats"
+        wait_until_known(leader_session, fresh_key)
         follower.offer(update)
         watch.wait("stats and fresh", lambda w: any(
             str(s.key_expr) == fresh_key for s in w.samples

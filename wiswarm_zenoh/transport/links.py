@@ -40,7 +40,11 @@ class FollowerLink:
             ),
             fresh=session.declare_publisher(keys.fresh(follower)),
         )
-        link._listener = link.fresh.declare_matching_listener(link._on_matching)
+        # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
+        # with no thread kept per follower for it.
+        link._listener = link.fresh.declare_matching_listener(
+            zenoh.handlers.Callback(link._on_matching, indirect=False)
+        )
         # A subscriber already there counts from the first delivery on: the listener's
         # first call comes later, from another thread. (The stubs say this property is a
         # bool; eclipse-zenoh 1.10 returns a MatchingStatus.)
