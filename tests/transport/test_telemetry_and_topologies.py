@@ -31,10 +31,11 @@ def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
         recorder.wait("join", lambda r: bool(r.joins))
         wait_until_known(leader_session, fresh_key)
         follower.offer(update)
-        watch.wait("stats and fresh", lambda w: any(
-            str(s.key_expr) == fresh_key for s in w.samples
-        ) and any(int(r["deliveries"]) == 1 for r in w.stats(stats_key))
-          and bool(w.stats(f"wiswarm/{SWARM}/leader/stats")))
+        watch.wait("the fresh update", lambda w: any(
+            str(s.key_expr) == fresh_key for s in w.samples))
+        watch.wait("stats counting it", lambda w: any(
+            int(r["deliveries"]) == 1 for r in w.stats(stats_key)))
+        watch.wait("the leader's stats", lambda w: bool(w.stats(f"wiswarm/{SWARM}/leader/stats")))
     fresh = next(s for s in watch.samples if str(s.key_expr) == fresh_key)
     assert fresh.payload.to_bytes() == update
     assert fresh.attachment is not None
