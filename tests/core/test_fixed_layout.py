@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from wiswarm_zenoh.core import WireError
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
-from wiswarm_zenoh.core.fixed_layout import unpack_poll, unpack_reply
+from wiswarm_zenoh.core.fixed_layout import expect, reply_prefix, unpack_poll, unpack_reply
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES, MAX_INT, MAX_SIZE, UINT32
 from wiswarm_zenoh.core.wire import (
     FragmentData,
@@ -179,3 +179,20 @@ def test_the_reply_header_fits_the_room_left_for_it_in_a_fragment() -> None:
     frag = FragmentData(MAX_INT, 1.0, UINT32 - 1, UINT32, 2**40, UINT32, b"")
     longest = "\u00e9" * (MAX_ID_BYTES // 2)  # two UTF-8 bytes each
     assert len(encode_reply(Reply(longest, MAX_INT, 1.0, 1.0, frag))) <= FRAGMENT_HEADER_BYTES
+
+
+@EXAMPLES
+@given(replies, st.booleans(), ids)
+def test_expecting_a_sender_changes_nothing_but_the_work(reply: Reply, from_polled: bool,
+                                                         other: str) -> None:
+    """Told whom it polled, the reader skips parsing that id; a reply from anyone else
+    is still read in full (and then its sender is the one it claims)."""
+    data = encode_reply(reply)
+    polled = reply.follower if from_polled else other
+    assert unpack_reply(data, expect(polled)) == unpack_reply(data) == reply
+
+
+def test_no_shortcut_is_expected_of_an_id_the_wire_refuses() -> None:
+    assert expect("x" * (MAX_ID_BYTES + 1)) is None
+    assert expect("") is None
+    assert expect("uav1") == ("uav1", reply_prefix("uav1"))

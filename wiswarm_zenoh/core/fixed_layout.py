@@ -30,9 +30,11 @@ from wiswarm_zenoh.core.messages import (
     Poll,
     Reply,
     Want,
+    id_fits,
 )
 
-__all__ = ["pack_poll", "pack_reply", "reply_prefix", "unpack_poll", "unpack_reply"]
+__all__ = ["Expected", "expect", "pack_poll", "pack_reply", "reply_prefix", "unpack_poll",
+           "unpack_reply"]
 
 UINT64, FLOAT64, UINT32, BIN32, NIL = b"\xcf", b"\xcb", b"\xce", b"\xc6", b"\xc0"
 WANTS: tuple[Want, ...] = ("next", "fresh")
@@ -150,11 +152,24 @@ def _sender(data: bytes) -> tuple[str, int] | None:
         return None
 
 
-def unpack_reply(data: bytes) -> Reply | None:
-    sender = _sender(data)
-    if sender is None:
-        return None
-    follower, at = sender
+# The follower a reply is expected from, and its ``reply_prefix``: its id then need not
+# be parsed (the leader knows whom it polled; a reply from anyone else is parsed in full).
+Expected = tuple[str, bytes]
+
+
+def expect(follower: str) -> Expected | None:
+    """What ``unpack_reply`` may expect of ``follower``, if its id is one the wire allows."""
+    return (follower, reply_prefix(follower)) if id_fits(follower) else None
+
+
+def unpack_reply(data: bytes, expected: Expected | None = None) -> Reply | None:
+    if expected is not None and data.startswith(expected[1]):
+        follower, at = expected[0], len(expected[1])
+    else:
+        sender = _sender(data)
+        if sender is None:
+            return None
+        follower, at = sender
     rest = len(data) - at
     if rest == _NOTHING.size:
         fields = _NOTHING.unpack_from(data, at)

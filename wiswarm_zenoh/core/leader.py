@@ -108,7 +108,7 @@ class Leader:
             raise ValueError("follower id must be a non-empty string")
         peer = self.table.peers.get(follower)
         if peer is None:
-            self.table.add(follower, Peer.new(self.config, now))
+            self.table.add(follower, Peer.new(follower, self.config, now))
         else:
             peer.restart()
 
@@ -235,7 +235,7 @@ class Leader:
             events.append(Stale(follower, "reply from a follower that is not a member"))
             return events
         try:
-            reply = decode_reply(data)
+            reply = decode_reply(data, peer.expected)
         except WireError as exc:
             peer.errors += 1
             events.append(Rejected(follower, str(exc)))

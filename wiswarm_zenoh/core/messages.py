@@ -61,3 +61,8 @@ class Control:
     seq: int
     leader_time: float
     entries: Mapping[str, Sequence[Waypoint]]
+
+
+def id_fits(value: object) -> bool:
+    """A follower id the wire carries: a non-empty string of at most MAX_ID_BYTES in UTF-8."""
+    return isinstance(value, str) and 0 < len(value.encode("utf-8", "replace")) <= MAX_ID_BYTES

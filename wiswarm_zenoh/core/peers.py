@@ -17,6 +17,7 @@ from wiswarm_zenoh.core.aoi import AoITracker, FloatArray
 from wiswarm_zenoh.core.clock import ClockOffsetEstimator
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
+from wiswarm_zenoh.core.fixed_layout import Expected, expect
 from wiswarm_zenoh.core.fragments import Reassembler
 from wiswarm_zenoh.core.wire import Want
 
@@ -55,6 +56,7 @@ class Peer:
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
     unsettled_tau: float = float("-inf")  # an update taken, its checksum not verified yet
+    expected: Expected | None = None  # how its replies start (see ``fixed_layout.expect``)
     probe_at: float = float("-inf")  # when a silent follower may be probed next
     probe_gap: float = 0.0  # the current back-off between probes (0: not silent)
     want: Want = "next"
@@ -64,8 +66,9 @@ class Peer:
     stale: int = 0
 
     @classmethod
-    def new(cls, config: LeaderConfig, now: float) -> Peer:
+    def new(cls, follower: str, config: LeaderConfig, now: float) -> Peer:
         return cls(
+            expected=expect(follower),
             aoi=AoITracker(now),
             reliability=ReliabilityEstimator(config.window, config.prior_p),
             weight=WeightEMA(config.alpha, config.initial_weight),

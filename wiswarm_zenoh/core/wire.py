@@ -15,6 +15,7 @@ from zlib_ng import zlib_ng
 
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.fixed_layout import (
+    Expected,
     pack_poll,
     pack_reply,
     reply_prefix,
@@ -35,6 +36,7 @@ from wiswarm_zenoh.core.messages import (
     Reply,
     Want,
     Waypoint,
+    id_fits,
 )
 
 __all__ = [
@@ -94,11 +96,6 @@ def _float(obj: Mapping[str, Any], key: str) -> float:
     if not math.isfinite(value):
         raise WireError(f"field {key!r} must be finite, got {value!r}")
     return float(value)
-
-
-def id_fits(value: object) -> bool:
-    """A follower id the wire carries: a non-empty string of at most MAX_ID_BYTES in UTF-8."""
-    return isinstance(value, str) and 0 < len(value.encode("utf-8", "replace")) <= MAX_ID_BYTES
 
 
 def _ident(value: object, what: str) -> str:
@@ -176,9 +173,10 @@ def _fragment_error(body: dict[str, Any], data: bytes) -> NoReturn:
     raise WireError("malformed fragment")  # unreachable: one of the checks above failed
 
 
-def decode_reply(data: bytes) -> Reply:
-    """A reply in the fixed layout followers send, or else in any valid encoding."""
-    reply = unpack_reply(data) if type(data) is bytes else None
+def decode_reply(data: bytes, expected: Expected | None = None) -> Reply:
+    """A reply in the fixed layout followers send, or else in any valid encoding
+    (``expected``: see ``fixed_layout.expect``)."""
+    reply = unpack_reply(data, expected) if type(data) is bytes else None
     return _decode_reply_any(data) if reply is None else reply
 
 

@@ -221,14 +221,15 @@ class LeaderNode:
                 self._transport_errors[link.follower] += 1
                 self.bad_input.report(link.key, f"error reply {reason!r}")
             return False
-        payload = sample.payload
-        if len(payload) > self._max_reply:
+        data = sample.payload.to_bytes()  # Zenoh holds it whole already: copy, then judge
+        if len(data) > self._max_reply:
             self._transport_errors[link.follower] += 1
-            self.bad_input.report(link.key, f"reply of {len(payload)} bytes exceeds the limit")
+            self.bad_input.report(link.key, f"reply of {len(data)} bytes exceeds the limit")
             return False
+        leader = self._leader
         with self._lock:
-            events = self._leader.accept_reply(link.follower, payload.to_bytes(), now)
-            done = self._leader.in_flight is None
+            events = leader.accept_reply(link.follower, data, now)
+            done = leader.in_flight is None
         if events:
             self._dispatch(events)
         return done
