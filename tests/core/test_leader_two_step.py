@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import dataclasses
 
+import pytest
+
 from wiswarm_zenoh.core import Delivered, Follower, Leader, LeaderConfig, Rejected
 from wiswarm_zenoh.core.wire import decode_reply, encode_reply
 
@@ -85,3 +87,35 @@ def test_a_follower_removed_before_settling_is_forgotten_with_its_reply() -> Non
     leader.remove_follower(first.follower)
     assert leader.settle() == []
     assert leader.followers == [fid for fid in followers if fid != first.follower]
+
+
+def test_a_follower_restarting_before_its_update_is_settled_changes_nothing_of_it() -> None:
+    """The update's time-stamp is put on the leader's clock when it comes, with the clock
+    estimate of the process that sent it, not of the one that replaced it."""
+    leader = Leader()
+    follower = Follower("a")
+    leader.add_follower("a", 0.0)
+    offset = 5.0  # the follower's clock is 5 s ahead
+    for t in (1.0, 1.1, 1.2):
+        follower.offer(FRAME, t - 0.1 + offset)
+        request = poll(leader, t)
+        raw = _answer({"a": follower}, "a", request.payload, t + 0.001 + offset)
+        leader.accept_reply("a", raw, t + 0.002)
+        events = leader.settle()
+        assert [type(e) for e in events] == [Delivered]
+        assert events[0].generated_at == pytest.approx(t - 0.1, abs=1e-3)
+    follower.offer(FRAME, 1.5 + offset)
+    request = poll(leader, 2.0)
+    leader.accept_reply("a", _answer({"a": follower}, "a", request.payload, 2.001 + offset),
+                        2.002)
+    leader.add_follower("a", 2.002)  # it restarted: its clock estimate starts over
+    events = leader.settle()
+    assert [type(e) for e in events] == [Delivered]
+    assert events[0].generated_at == pytest.approx(1.5, abs=1e-3)
+    restarted = Follower("a")  # the new process's clock is right
+    restarted.offer(FRAME, 2.9)
+    request = poll(leader, 3.0)  # a slower round trip than the one before the restart
+    events = leader.on_reply("a", _answer({"a": restarted}, "a", request.payload, 3.001),
+                             3.004)
+    assert [type(e) for e in events] == [Delivered]
+    assert events[0].generated_at == pytest.approx(2.9, abs=1e-3)  # no sample of the old one

@@ -15,6 +15,7 @@ from wiswarm_zenoh.core.fragments import verify_checksum
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.policies import make_policy
 from wiswarm_zenoh.core.wire import (
+    FragmentData,
     Poll,
     Reply,
     Waypoint,
@@ -54,14 +55,15 @@ class PollRequest:
 
 @dataclass(slots=True)
 class Unsettled:
-    """A valid reply already counted for the scheduler, with what ``settle`` still does:
-    the clock sample, and the update's checksum and delivery."""
+    """A complete update already counted for the scheduler, whose checksum and delivery
+    are ``settle``'s job. Its time-stamp is on the leader's clock as estimated when it
+    came: a follower restarting in between changes nothing."""
 
     follower: str
     peer: Peer
-    reply: Reply
-    poll_sent_at: float
-    whole: bytes | None  # a complete update, or None (a part, or nothing new)
+    frag: FragmentData
+    whole: bytes
+    generated_at: float
     now: float
 
 
@@ -250,56 +252,53 @@ class Leader:
             events.append(Rejected(follower, f"reply claims to come from {reply.follower!r}"))
             return events
         self._complete(flight, peer, answered=True, now=now)
-        whole = self._take_fragment(follower, peer, reply, now, events)
-        self._unsettled = Unsettled(follower, peer, reply, flight.sent_at, whole, now)
+        peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
+        self._take_fragment(follower, peer, reply, now, events)
         self.table.sync(follower)
         return events
 
     def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float,
-                       events: list[Event]) -> bytes | None:
-        """Collect the reply's fragment; the whole update if it completes one."""
+                       events: list[Event]) -> None:
+        """Collect the reply's fragment; an update it completes waits for ``settle``."""
         frag = reply.fragment
         if frag is None:
             peer.idle_since = now
-            return None
+            return
         try:
             whole = peer.reassembler.add(frag)
         except WireError as exc:
             peer.errors += 1
             peer.ack, peer.want = None, "fresh"
             events.append(Rejected(follower, str(exc)))
-            return None
+            return
         peer.ack, peer.want = (frag.update_seq, frag.index), "next"
         if whole is not None:
-            peer.unsettled_tau = peer.clock.to_leader(frag.generated_at)
-        return whole
+            generated_at = peer.clock.to_leader(frag.generated_at)
+            peer.unsettled_tau = generated_at
+            self._unsettled = Unsettled(follower, peer, frag, whole, generated_at, now)
 
     def settle(self) -> list[Event]:
-        """The second step of ``on_reply`` for the reply accepted last (if any)."""
+        """The second step of ``on_reply`` for the update accepted last (if any)."""
         unsettled, self._unsettled = self._unsettled, None
         if unsettled is None:
             return []
-        peer, reply, now = unsettled.peer, unsettled.reply, unsettled.now
-        peer.clock.add(unsettled.poll_sent_at, reply.received_at, reply.sent_at, now)
-        whole, frag = unsettled.whole, reply.fragment
-        if whole is None or frag is None:
-            return []
-        follower = unsettled.follower
+        follower, peer, frag = unsettled.follower, unsettled.peer, unsettled.frag
         peer.unsettled_tau = float("-inf")
         try:
-            verify_checksum(whole, frag)
+            verify_checksum(unsettled.whole, frag)
         except WireError as exc:
             peer.errors += 1
             peer.ack, peer.want = None, "fresh"
             self.table.sync(follower)
             return [Rejected(follower, str(exc))]
-        generated_at = peer.clock.to_leader(frag.generated_at)
+        generated_at, now = unsettled.generated_at, unsettled.now
         delivered = peer.aoi.deliver(generated_at, now)
         self.table.sync(follower)
         if not delivered:
             peer.stale += 1
             return [Stale(follower, "update older than the freshest delivered")]
-        return [Delivered(follower, whole, generated_at, now - generated_at, frag.update_seq)]
+        return [Delivered(follower, unsettled.whole, generated_at, now - generated_at,
+                          frag.update_seq)]
 
     def stats(self, follower: str, now: float) -> FollowerStats:
         return self._peer(follower).stats(follower, now)
