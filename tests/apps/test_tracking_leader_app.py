@@ -47,17 +47,22 @@ def frame_over_car(car: int, t: float) -> bytes:
     return encode_frame(Frame(t, pose, CAMERA, RENDERER.frame(pose, CAMERA, t)))
 
 
+def _process(vision: VisionLoop, sink: RecordingSink) -> None:
+    """Run the vision thread until the sink has every plan it expects."""
+    vision.start(sink)
+    try:
+        assert sink.done.wait(10.0)
+    finally:
+        vision.stop()
+
+
 def test_only_the_freshest_frame_of_each_uav_is_processed_round_robin() -> None:
     vision = VisionLoop({"a": 0, "b": 1}, WORLD.arena, camera=CAMERA)
     for t in (1.0, 1.1, 1.2):
         vision.submit("a", Arrival(frame_over_car(0, t), t, t + 0.01))
     vision.submit("b", Arrival(frame_over_car(1, 1.0), 1.0, 1.01))
     sink = RecordingSink(expected=2)
-    vision.start(sink)
-    try:
-        assert sink.done.wait(10.0)
-    finally:
-        vision.stop()
+    _process(vision, sink)
     stats = vision.stats()
     assert (stats["a"].arrivals, stats["a"].processed, stats["a"].superseded) == (3, 1, 2)
     assert (stats["b"].processed, stats["b"].detections) == (1, 1)
@@ -75,11 +80,7 @@ def test_waypoints_are_stamped_in_the_uav_clock() -> None:
     vision = VisionLoop({"a": 0}, WORLD.arena, camera=CAMERA, clock=lambda: processing_at)
     vision.submit("a", Arrival(frame_over_car(0, 1.0), 1.0 + offset, 1.01 + offset))
     sink = RecordingSink(expected=1)
-    vision.start(sink)
-    try:
-        assert sink.done.wait(10.0)
-    finally:
-        vision.stop()
+    _process(vision, sink)
     waypoints = sink.plans[0][1]
     assert waypoints[0][0] == pytest.approx(1.02)
     assert all(WORLD.arena.contains(w[1], w[2]) for w in waypoints)
