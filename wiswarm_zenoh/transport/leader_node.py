@@ -226,10 +226,9 @@ class LeaderNode:
             self._transport_errors[link.follower] += 1
             self.bad_input.report(link.key, f"reply of {len(data)} bytes exceeds the limit")
             return False
-        leader = self._leader
         with self._lock:
-            events = leader.accept_reply(link.follower, data, now)
-            done = leader.in_flight is None
+            events = self._leader.accept_reply(link.follower, data, now)
+            done = self._leader.in_flight is None
         if events:
             self._dispatch(events)
         return done
