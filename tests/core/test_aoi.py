@@ -94,3 +94,19 @@ def test_statistics_at_the_start() -> None:
     assert aoi.percentile(0.95, 3.0) == 0.0
     with pytest.raises(ValueError, match="q"):
         aoi.percentile(1.5, 4.0)
+
+
+def test_percentiles_asked_between_deliveries_change_nothing() -> None:
+    """The leader asks for percentiles while updates keep coming (its stats): asking
+    leaves the statistics as they would be had nobody asked, at any later time."""
+    asked, quiet = AoITracker(0.0), AoITracker(0.0)
+    now = 0.0
+    for step in range(1, 400):
+        now += 0.001 * (1 + step % 7)
+        stamp = now - 0.0004 * (step % 5)
+        assert asked.deliver(stamp, now) == quiet.deliver(stamp, now)
+        if step % 3 == 0:
+            asked.percentile(0.95, now + 0.0005 * (step % 11))
+    for q in (0.0, 0.5, 0.95, 1.0):
+        assert asked.percentile(q, now + 0.002) == pytest.approx(
+            quiet.percentile(q, now + 0.002), rel=1e-9, abs=1e-12)

@@ -11,17 +11,17 @@ whatever the run's length, in memory that grows with the spread of ages, not wit
 from __future__ import annotations
 
 import math
-from bisect import bisect_left
+from array import array
 
 import numpy as np
 import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.intp]
 
 SMALLEST_AGE = 1e-5  # seconds; bin 0 holds [0, SMALLEST_AGE)
 BIN_RATIO = 1.005  # consecutive bin edges differ by 0.5 %
 _LOG_RATIO = math.log(BIN_RATIO)
-_EMPTY = (0.0, 0.0, 0.0, 0.0)
 
 
 def bin_of(age: float) -> int:
@@ -32,42 +32,65 @@ def bin_of(age: float) -> int:
 
 
 class AgeHistogram:
-    """Time spent at each age, from sawtooth segments (start age, length)."""
+    """Time spent at each age, from sawtooth segments (start age, length).
+
+    Each bin an age fell in is a row of four columns (count and sum of the starts, count
+    and sum of the ends), kept as arrays of doubles: adding a segment is two row updates,
+    and a percentile reads the columns through numpy without building them anew (the
+    leader computes several per follower for every stats message, on its poll thread).
+    Rows are in the order their bins appeared; the sorted order is cached until a new bin
+    comes.
+    """
 
     def __init__(self) -> None:
-        # bin -> [count of starts, sum of starts, count of ends, sum of ends]
-        self._bins: dict[int, list[float]] = {}
+        self._row_of_bin: dict[int, int] = {}
+        self._bins = array("d")  # the bin of each row (as a float: its edges are powers)
+        self._columns = (array("d"), array("d"), array("d"), array("d"))
+        self._order: IntArray | None = None  # rows by increasing bin; None: to sort again
 
-    @staticmethod
-    def _put(bins: dict[int, list[float]], start: float, end: float) -> None:
-        first = bins.setdefault(bin_of(start), [0.0, 0.0, 0.0, 0.0])
-        first[0] += 1.0
-        first[1] += start
-        last = bins.setdefault(bin_of(end), [0.0, 0.0, 0.0, 0.0])
-        last[2] += 1.0
-        last[3] += end
+    def _row(self, b: int) -> int:
+        row = self._row_of_bin.get(b)
+        if row is None:
+            row = self._row_of_bin[b] = len(self._bins)
+            self._bins.append(b)
+            for column in self._columns:
+                column.append(0.0)
+            self._order = None
+        return row
 
     def add(self, start_age: float, length: float) -> None:
         if length > 0:
-            AgeHistogram._put(self._bins, start_age, start_age + length)
+            end = start_age + length
+            starts, start_sums, ends, end_sums = self._columns
+            row = self._row(bin_of(start_age))
+            starts[row] += 1.0
+            start_sums[row] += start_age
+            row = self._row(bin_of(end))
+            ends[row] += 1.0
+            end_sums[row] += end
 
     def percentile(self, q: float, open_start: float, open_length: float) -> float:
         """The q-quantile of age over time, including a still-open segment."""
-        bins = self._bins
-        open_bins: dict[int, list[float]] = {}
-        if open_length > 0:
-            self._put(open_bins, open_start, open_start + open_length)
-        if not bins and not open_bins:
+        if not self._bins and open_length <= 0:
             return open_start
-        keys = sorted(bins.keys() | open_bins.keys())
-        acc = np.array([bins.get(k, _EMPTY) for k in keys], dtype=np.float64)
-        for k, row in open_bins.items():
-            acc[bisect_left(keys, k)] += row
+        open_rows: tuple[tuple[int, int, float], ...] = ()
+        if open_length > 0:  # rows for its bins first: the columns cannot grow once viewed
+            open_end = open_start + open_length
+            open_rows = ((self._row(bin_of(open_start)), 0, open_start),
+                         (self._row(bin_of(open_end)), 2, open_end))
+        if self._order is None:
+            self._order = np.argsort(np.frombuffer(self._bins), kind="stable")
+        order = self._order
+        acc = np.column_stack([np.frombuffer(column) for column in self._columns])
+        for row, count, value in open_rows:
+            acc[row, count] += 1.0
+            acc[row, count + 1] += value
+        acc = acc[order]
         cum = np.cumsum(acc, axis=0)
         prev = np.vstack([np.zeros(4), cum[:-1]])
-        k_arr = np.array(keys, dtype=np.float64)
+        k_arr = np.frombuffer(self._bins)[order]
         upper = SMALLEST_AGE * BIN_RATIO**k_arr
-        lower = np.where(k_arr == 0, 0.0, SMALLEST_AGE * BIN_RATIO ** (k_arr - 1))
+        lower = np.where(k_arr == 0, 0.0, upper / BIN_RATIO)
 
         def below(x: FloatArray, c: FloatArray) -> FloatArray:
             result: FloatArray = (x * c[:, 0] - c[:, 1]) - (x * c[:, 2] - c[:, 3])

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from array import array
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -41,7 +41,9 @@ class FollowerStats:
     clock_offset_s: float
 
     def as_dict(self) -> dict[str, float | int | str]:
-        return asdict(self)
+        # Its fields are plain numbers and a string: a shallow copy is the whole of it,
+        # at a tenth of ``asdict``'s deep copy (made for every follower in every stats put).
+        return dict(vars(self))
 
 
 @dataclass
