@@ -9,7 +9,8 @@ follower frames at that rate, as in the paper's runs: most polls then find nothi
 new, so (b) shows the real system rather than a like-for-like comparison). Rounds of
 (a) the bare loop (prepared queriers, round robin, one get in flight) and (b) the
 ``LeaderNode`` run in pairs back to back, (b) first in every other pair, so that the
-machine's drift cancels; the ratio (b)/(a) printed is the median over the pairs (its
+machine's drift cancels, each timed from its 20th poll per follower on (steady state: new
+queriers and routes are slow at first); the ratio (b)/(a) printed is the median over the pairs (its
 quartiles show the noise), then the mean AoI of each follower in (b) next to the
 round-robin floor S (N/2 + 1), S = 1/(a).
 
@@ -20,6 +21,7 @@ round-robin floor S (N/2 + 1), S = 1/(a).
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing
 import os
 import statistics
@@ -33,6 +35,7 @@ from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.frames import SyntheticFrames
+from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
 from wiswarm_zenoh.transport.runners import (
     ReadySignal,
     StopSignal,
@@ -45,7 +48,7 @@ from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 SWARM = "bench"
 BARE = "benchbare"
 READY_TIMEOUT = 30.0
-STATS_PERIOD = 0.25
+WARM_UP_ROUNDS = 20  # polls per follower before either loop's clock starts: steady state
 
 
 def bare_reply(follower: str, frame: bytes) -> bytes:
@@ -101,10 +104,12 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
         for f in followers
     ]
     poll = encode_poll(Poll(1, time.time(), None))
-    polls, size = 0, 0
-    start = time.perf_counter()
-    end = start + seconds
+    polls, size = -WARM_UP_ROUNDS * len(queriers), 0  # the clock starts at polls == 0
+    start = end = math.inf
     while time.perf_counter() < end:
+        if polls == 0:
+            start = time.perf_counter()
+            end = start + seconds
         for reply in queriers[polls % len(queriers)].get(payload=poll):
             sample = reply.ok
             if sample is not None:
@@ -129,10 +134,12 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
         if len(joined) == n:
             everyone.set()
 
-    with LeaderNode(session, SWARM, config, on_join=on_join, control_period=control_period,
-                    stats_period=STATS_PERIOD) as node:
+    with LeaderNode(session, SWARM, config, on_join=on_join,
+                    control_period=control_period) as node:
         if not everyone.wait(READY_TIMEOUT):
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
+        while node.polls < WARM_UP_ROUNDS * n:
+            time.sleep(0.001)
         start, polls0 = time.perf_counter(), node.polls
         time.sleep(seconds)
         rate = (node.polls - polls0) / (time.perf_counter() - start)
