@@ -9,10 +9,10 @@ follower frames at that rate, as in the paper's runs: most polls then find nothi
 new, so (b) shows the real system rather than a like-for-like comparison). Rounds of
 (a) the bare loop (prepared queriers, round robin, one get in flight) and (b) the
 ``LeaderNode`` run in pairs back to back, (b) first in every other pair, so that the
-machine's drift cancels, each timed from its 20th poll per follower on (steady state: new
-queriers and routes are slow at first); the ratio (b)/(a) printed is the median over the pairs (its
-quartiles show the noise), then the mean AoI of each follower in (b) next to the
-round-robin floor S (N/2 + 1), S = 1/(a).
+machine's drift cancels, each timed from its 20th poll per follower on (steady state:
+new queriers and routes are slow at first); the ratio (b)/(a) printed is the median
+over the pairs (its quartiles show the noise), then the mean AoI of each follower in (b)
+next to the round-robin floor S (N/2 + 1), S = 1/(a).
 
     .venv/bin/python benchmarks/bench_poll.py                 # N = 4 and 14, 50 kB
     .venv/bin/python benchmarks/bench_poll.py -n 4 --seconds 2 --control-period 0
