@@ -27,6 +27,7 @@ def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
     leader_session = sessions.node(port)
     fresh_key = f"wiswarm/{SWARM}/uav1/fresh"
     stats_key = f"wiswarm/{SWARM}/uav1/stats"
+    leader_key = f"wiswarm/{SWARM}/leader/stats"
     with LeaderNode(leader_session, SWARM, **recorder.callbacks()):
         recorder.wait("join", lambda r: bool(r.joins))
         wait_until_known(leader_session, fresh_key)
@@ -35,7 +36,10 @@ def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
             str(s.key_expr) == fresh_key for s in w.samples))
         watch.wait("stats counting it", lambda w: any(
             int(r["deliveries"]) == 1 for r in w.stats(stats_key)))
-        watch.wait("the leader's stats", lambda w: bool(w.stats(f"wiswarm/{SWARM}/leader/stats")))
+        # The first leader stats go out before anyone joined: wait for one that lists uav1
+        # (put right after the follower's stats, so it may still be on its way).
+        watch.wait("the leader's stats listing uav1", lambda w: any(
+            r["followers"] == ["uav1"] for r in w.stats(leader_key)))
     fresh = next(s for s in watch.samples if str(s.key_expr) == fresh_key)
     assert fresh.payload.to_bytes() == update
     assert fresh.attachment is not None
@@ -48,9 +52,9 @@ def test_a_plain_subscriber_reads_the_stats_json_and_the_fresh_updates(
     assert record.keys() >= FOLLOWER_FIELDS
     assert record["follower"] == "uav1" and 0.0 < record["p_hat"] <= 1.0
     assert record["polls"] >= record["deliveries"] == 1
-    leader = watch.stats(f"wiswarm/{SWARM}/leader/stats")[-1]
+    leader = next(r for r in watch.stats(leader_key) if r["followers"] == ["uav1"])
     assert leader.keys() >= LEADER_FIELDS
-    assert leader["followers"] == ["uav1"] and leader["policy"] == "whittle"
+    assert leader["policy"] == "whittle"
 
 
 def _delivers(leader_session: zenoh.Session, follower: FollowerNode) -> None:
