@@ -6,11 +6,12 @@ import dataclasses
 
 import pytest
 
+from wiswarm_zenoh.core import Follower, FollowerConfig
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.fragments import OutgoingUpdate, Reassembler, checksum, verify_checksum
 from wiswarm_zenoh.core.queues import Update
-from wiswarm_zenoh.core.wire import FragmentData
+from wiswarm_zenoh.core.wire import FragmentData, Poll, decode_reply, encode_poll
 
 
 def _outgoing(size: int, chunk: int, seq: int = 1) -> OutgoingUpdate:
@@ -43,10 +44,13 @@ def test_fragment_count_and_sizes(size: int, chunk: int, count: int) -> None:
     }
 
 
-def test_for_fragment_size_leaves_room_for_the_header() -> None:
-    out = OutgoingUpdate.for_fragment_size(Update(1, 0.0, bytes(1000)), FRAGMENT_HEADER_BYTES + 44)
-    assert out.chunk == 44
-    assert out.count == -(-1000 // out.chunk)
+def test_fragment_size_leaves_room_for_the_header() -> None:
+    follower = Follower("uav1", FollowerConfig(fragment_size=FRAGMENT_HEADER_BYTES + 44))
+    follower.offer(bytes(1000), 0.0)
+    reply = decode_reply(follower.on_poll(encode_poll(Poll(1, 0.0, None)), 0.0, 0.0))
+    assert reply.fragment is not None
+    assert len(reply.fragment.data) == 44
+    assert reply.fragment.count == -(-1000 // 44)
 
 
 def test_fragment_is_resent_until_acknowledged() -> None:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.queues import Update
 from wiswarm_zenoh.core.wire import FragmentData, checksum
@@ -24,10 +23,6 @@ class OutgoingUpdate:
         self.chunk = chunk
         self.next_index = next_index
         self.count = max(1, -(-len(update.payload) // chunk))
-
-    @classmethod
-    def for_fragment_size(cls, update: Update, fragment_size: int) -> OutgoingUpdate:
-        return cls(update, chunk=fragment_size - FRAGMENT_HEADER_BYTES)
 
     @property
     def done(self) -> bool:
