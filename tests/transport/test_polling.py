@@ -63,9 +63,12 @@ def test_lifo_follower_at_100_Hz_is_delivered_a_frame_under_two_intervals_old(
 ) -> None:
     follower = FollowerNode(sessions.node(port), SWARM, "cam", FollowerConfig(queue="lifo"))
     made: list[float] = []  # capture time of frame k at made[k - 1]
+    backlog = threading.Event()  # frames enough that a FIFO would serve stale ones first
 
     def offer(frame: bytes) -> bool:
         made.append(struct.unpack_from("<Qd", frame)[1])
+        if len(made) >= 20:
+            backlog.set()
         return follower.offer(frame)
 
     frames = SyntheticFrames(offer, size=50176, rate=100.0)
@@ -77,12 +80,15 @@ def test_lifo_follower_at_100_Hz_is_delivered_a_frame_under_two_intervals_old(
         behind.append(sum(t <= taken_at for t in made[counter:]))
         recorder.on_delivery(event)
 
-    with LeaderNode(sessions.node(port), SWARM, on_delivery=on_delivery):
-        frames.start()
-        try:
+    frames.start()
+    try:
+        # The camera runs before the leader polls (20 frames, 0.2 s): the first poll
+        # then finds a backlog, where only LIFO serves the newest (FIFO: the oldest).
+        assert backlog.wait(WAIT)
+        with LeaderNode(sessions.node(port), SWARM, on_delivery=on_delivery):
             recorder.wait("100 frames", lambda r: len(r.deliveries) >= 100)
-        finally:
-            frames.stop()
+    finally:
+        frames.stop()
     # At poll time the queue holds the newest frame (or, for an instant, the one before
     # it): fewer than 2 intervals old. Counting when the reply is back adds what was made
     # during the round trip (about 1 ms, so rarely one more frame). (Counted when the
