@@ -16,6 +16,7 @@ from wiswarm_zenoh.transport.frames import SyntheticFrames
 from .helpers import WAIT, Recorder, Sessions
 
 SWARM = "t"
+BACKLOG = 20  # frames the camera makes before the LIFO test's leader polls (0.2 s)
 
 
 def test_poll_round_trip_delivers_the_update_and_carries_the_control(
@@ -67,7 +68,7 @@ def test_lifo_follower_at_100_Hz_is_delivered_a_frame_under_two_intervals_old(
 
     def offer(frame: bytes) -> bool:
         made.append(struct.unpack_from("<Qd", frame)[1])
-        if len(made) >= 20:
+        if len(made) >= BACKLOG:
             backlog.set()
         return follower.offer(frame)
 
@@ -82,8 +83,8 @@ def test_lifo_follower_at_100_Hz_is_delivered_a_frame_under_two_intervals_old(
 
     frames.start()
     try:
-        # The camera runs before the leader polls (20 frames, 0.2 s): the first poll
-        # then finds a backlog, where only LIFO serves the newest (FIFO: the oldest).
+        # The camera runs before the leader polls: the first poll then finds a backlog,
+        # where only LIFO serves the newest frame (FIFO: the oldest).
         assert backlog.wait(WAIT)
         with LeaderNode(sessions.node(port), SWARM, on_delivery=on_delivery):
             recorder.wait("100 frames", lambda r: len(r.deliveries) >= 100)
