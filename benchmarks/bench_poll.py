@@ -211,8 +211,8 @@ def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[flo
     print(f"  ratio (b)/(a)       {median:8.2f}   target >= 0.80   (median of the {len(paired)} "
           f"pairs of rounds, quartiles {low:.2f} .. {high:.2f}; ratio of the medians "
           f"{b / a:.2f})")
-    # The time the middleware adds to each poll: steadier than the ratio, which falls
-    # when the machine speeds up and this overhead becomes a larger part of S.
+    # The time the middleware adds to each poll, next to what the target allows: it says
+    # whether a low ratio comes from a larger overhead or from a faster bare loop.
     added = sorted((1.0 / y - 1.0 / x) * 1e6 for x, y in zip(bare, leader, strict=True))
     low, median, high = statistics.quantiles(added, n=4) if len(added) > 1 else added * 3
     print(f"  added per poll      {median:8.0f} us   (quartiles {low:.0f} .. {high:.0f}; "
