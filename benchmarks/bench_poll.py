@@ -1,6 +1,11 @@
 """Polls per second: the leader's poll loop against a bare Zenoh ``get`` loop.
 
-For each N, one router and N follower processes (spawn) come up on loopback. Every
+For each N, a router and N followers come up on loopback, each follower with a Zenoh
+session of its own. By default the N sessions live in one host process (spawn), which
+keeps each follower's code as warm as on a UAV of its own; ``--layout processes`` gives
+each follower a process instead, as the demo does: on a machine with fewer cores than
+processes, every poll then wakes a process whose caches the others have emptied, and
+that cost of the test bed (S grows with N, in both loops) swamps what is measured. Every
 follower serves two keys: a bare queryable answering with a fixed reply, and a
 ``FollowerNode`` that offers a frame at each poll (``sample_on_poll``: a camera read at
 will, its capture cost left out), so each poll moves one whole fresh update, as the
@@ -17,11 +22,13 @@ follower in (b) next to the round-robin floor S (N/2 + 1).
 
     .venv/bin/python benchmarks/bench_poll.py                 # N = 4 and 14, 50 kB
     .venv/bin/python benchmarks/bench_poll.py -n 4 --seconds 2 --control-period 0
+    .venv/bin/python benchmarks/bench_poll.py --layout processes  # a process per follower
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import multiprocessing
 import os
@@ -59,28 +66,33 @@ def bare_reply(follower: str, frame: bytes) -> bytes:
     return core.on_poll(encode_poll(Poll(1, time.time(), None)), time.time(), time.time())
 
 
-def follower_process(spec: SessionSpec, follower: str, frame_bytes: int, camera: float | None,
-                     stop: StopSignal, ready: ReadySignal) -> None:
+def followers_process(spec: SessionSpec, followers: list[str], frame_bytes: int,
+                      camera: float | None, stop: StopSignal, ready: ReadySignal) -> None:
+    """Followers of one host process, each with a Zenoh session of its own (as on a
+    machine of its own): the bare queryable and the ``FollowerNode``."""
     frame = bytes(frame_bytes)
-    reply = bare_reply(follower, frame)
-    key = f"wiswarm/{BARE}/{follower}/update"
+    with contextlib.ExitStack() as stack:
+        feeds = []
+        for follower in followers:
+            session = stack.enter_context(spec.open())
+            reply = bare_reply(follower, frame)
+            key = f"wiswarm/{BARE}/{follower}/update"
 
-    def answer(query: zenoh.Query) -> None:
-        with query:
-            query.reply(key, reply)
+            def answer(query: zenoh.Query, key: str = key, reply: bytes = reply) -> None:
+                with query:
+                    query.reply(key, reply)
 
-    with spec.open() as session:
-        bare = session.declare_queryable(key, zenoh.handlers.Callback(answer, indirect=False))
-        with FollowerNode(session, SWARM, follower,
-                          sample_on_poll=None if camera else lambda: frame) as node:
-            frames = SyntheticFrames(node.offer, frame_bytes, camera) if camera else None
-            if frames is not None:
-                frames.start()
-            ready.set()
-            wait_until_stopped(stop)
-            if frames is not None:
-                frames.stop()
-        bare.undeclare()
+            bare = session.declare_queryable(key, zenoh.handlers.Callback(answer, indirect=False))
+            stack.callback(bare.undeclare)
+            node = stack.enter_context(FollowerNode(
+                session, SWARM, follower, sample_on_poll=None if camera else lambda: frame))
+            if camera:
+                feeds.append(SyntheticFrames(node.offer, frame_bytes, camera))
+        for feed in feeds:
+            feed.start()
+            stack.callback(feed.stop)
+        ready.set()
+        wait_until_stopped(stop)
 
 
 def wait_for_routes(session: zenoh.Session, followers: list[str], timeout: float) -> None:
@@ -153,10 +165,12 @@ def measure(n: int, args: argparse.Namespace) -> None:
     ctx = multiprocessing.get_context("spawn")
     port = free_tcp_port()
     node_spec = SessionSpec.loopback(args.mode, connect_ports=[port])
+    followers = [f"uav{i}" for i in range(n)]
+    hosts = [followers] if args.layout == "host" else [[f] for f in followers]
     jobs: list[tuple[Any, tuple[Any, ...]]] = [
         (run_router, (SessionSpec.loopback("router", port),)),
-        *((follower_process, (node_spec, f"uav{i}", args.frame_bytes, args.camera))
-          for i in range(n)),
+        *((followers_process, (node_spec, names, args.frame_bytes, args.camera))
+          for names in hosts),
     ]
     procs = []
     try:
@@ -169,7 +183,6 @@ def measure(n: int, args: argparse.Namespace) -> None:
                 raise RuntimeError("a child process did not come up")
         config = LeaderConfig(policy=args.policy, timeout=args.timeout)
         with node_spec.open() as session:
-            followers = [f"uav{i}" for i in range(n)]
             wait_for_routes(session, followers, args.timeout)
             bare_round(session, followers, 0.5, args.timeout)  # warm up
             bare, leader, stats = [], [], []
@@ -199,9 +212,11 @@ def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[flo
     floor = s * (n / 2 + 1)
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     source = f"camera at {args.camera:g} Hz" if args.camera else "a fresh update every poll"
+    hosts = "one host process" if args.layout == "host" else "a process per follower"
     print(f"\nN = {n}, {args.frame_bytes} B updates ({source}), {args.mode} mode via a router, "
-          f"{args.rounds} rounds of {args.seconds:g} s, control period {args.control_period:g} s"
-          f" (load average {load} on {os.cpu_count()} CPUs)")
+          f"followers in {hosts}, {args.rounds} rounds of {args.seconds:g} s, "
+          f"control period {args.control_period:g} s "
+          f"(load average {load} on {os.cpu_count()} CPUs)")
     print(f"  (a) bare get loop   {a:8.0f} polls/s   (rounds: "
           f"{', '.join(f'{x:.0f}' for x in bare)})   S = {s * 1e3:.3f} ms")
     print(f"  (b) leader loop     {b:8.0f} polls/s   (rounds: "
@@ -233,6 +248,9 @@ def main() -> None:
     parser.add_argument("--camera", type=float, metavar="HZ",
                         help="followers make frames at this rate instead of one per poll")
     parser.add_argument("--mode", choices=["peer", "client"], default="peer")
+    parser.add_argument("--layout", choices=["host", "processes"], default="host",
+                        help="the followers' sessions in one host process (default), or a "
+                        "process per follower")
     parser.add_argument("--policy", default="whittle")
     parser.add_argument("--timeout", type=float, default=0.3)
     parser.add_argument("--control-period", type=float, default=0.1,
