@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
 
@@ -77,3 +79,17 @@ def test_weight_ema_rejects_bad_urgency(v: float) -> None:
 def test_weight_ema_rejects_bad_alpha(alpha: float) -> None:
     with pytest.raises(ValueError, match="alpha"):
         WeightEMA(alpha)
+
+
+@given(window=st.integers(1, 6), prior=st.floats(0.0, 1.0),
+       outcomes=st.lists(st.booleans(), max_size=20), last=st.booleans())
+def test_reliability_after_foretells_record(window: int, prior: float, outcomes: list[bool],
+                                            last: bool) -> None:
+    estimator = ReliabilityEstimator(window, prior)
+    for answered in outcomes:
+        estimator.record(answered)
+    before = estimator.value
+    foretold = estimator.after(last)
+    assert estimator.value == before  # only foretold
+    estimator.record(last)
+    assert estimator.value == pytest.approx(foretold)

@@ -25,12 +25,18 @@ class ReliabilityEstimator:
         self.value = prior  # kept current by ``record``: the leader reads it on every poll
 
     def record(self, answered: bool) -> None:
+        self.value = self.after(answered)
         if len(self._outcomes) == self.window and self._outcomes[0]:
             self._answered -= 1
         self._outcomes.append(answered)
         self._answered += answered
-        missing = self.window - len(self._outcomes)
-        self.value = (self._answered + self.prior * missing) / self.window
+
+    def after(self, answered: bool) -> float:
+        """What ``value`` would be with one more poll recorded (nothing changes)."""
+        full = len(self._outcomes) == self.window
+        count = self._answered - (full and self._outcomes[0]) + answered
+        missing = self.window - min(len(self._outcomes) + 1, self.window)
+        return (count + self.prior * missing) / self.window
 
 
 class WeightEMA:

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import math
 import random
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,7 +14,7 @@ from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
 from wiswarm_zenoh.core.fragments import verify_checksum
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
-from wiswarm_zenoh.core.policies import make_policy
+from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
 from wiswarm_zenoh.core.wire import (
     FragmentData,
     Poll,
@@ -67,6 +68,29 @@ class Unsettled:
     now: float
 
 
+@dataclass(slots=True)
+class Prepared:
+    """``prepare``'s pick for the poll after the one in flight (``poll_seq``): the
+    follower at ``choice`` in the table, whose policy index at ``at`` is ``value``."""
+
+    poll_seq: int
+    at: float
+    choice: int
+    value: float
+    index: Callable[[float, float, float], float]  # the policy's
+
+
+@dataclass(slots=True)
+class Answered:
+    """A valid reply that completed its poll on the fast path; the rest of taking it
+    (the poll's outcome, clock, reassembly) waits for ``settle``."""
+
+    flight: PollRequest
+    peer: Peer
+    reply: Reply
+    now: float
+
+
 class Leader:
     """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
 
@@ -80,6 +104,12 @@ class Leader:
     the rest (checksum, AoI, the ``Delivered`` event), once the next poll is on its way.
     An update whose checksum then fails is rejected and its freshness withdrawn. Any
     call to ``accept_reply`` settles the reply before it first, so nothing is lost.
+
+    A shell in more of a hurry also sends the next poll before it takes the reply at
+    all: ``prepare`` (while the poll is out) picks among the other followers, with ages
+    as at the time the reply is expected; ``reply_and_poll`` then checks the reply and
+    the polled follower's new index against that pick, and returns the next poll, or
+    None when the usual path must decide (see there).
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None):
@@ -95,6 +125,8 @@ class Leader:
         self._waypoints: dict[str, list[Waypoint]] = {}
         self._packed_control: bytes | None = None  # cache of the packed entries
         self._unsettled: Unsettled | None = None
+        self._prepared: Prepared | None = None
+        self._answered: Answered | None = None
 
     @property
     def followers(self) -> list[str]:
@@ -108,6 +140,7 @@ class Leader:
         """A follower joined, or rejoined after a restart (its transfer state is reset)."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
+        self._prepared = None
         peer = self.table.peers.get(follower)
         if peer is None:
             self.table.add(follower, Peer.new(follower, self.config, now))
@@ -122,6 +155,9 @@ class Leader:
             self._in_flight = None
         if self._unsettled is not None and self._unsettled.follower == follower:
             self._unsettled = None
+        if self._answered is not None and self._answered.flight.follower == follower:
+            self._answered = None
+        self._prepared = None
         self.table.remove(follower)
         if self._waypoints.pop(follower, None) is not None:
             self._packed_control = None
@@ -142,15 +178,19 @@ class Leader:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
         weight = self._peer(follower).weight.observe(v)
         self.table.sync(follower)
+        self._prepared = None
         return weight
 
     def poll(self, now: float) -> PollRequest | None:
         """Choose and build the next poll, or None while one is in flight or nobody is here."""
         if self._in_flight is not None or not self.table.ids:
             return None
-        table = self.table
-        follower = table.ids[self._choose(now)]
-        peer = table.peers[follower]
+        return self._start_poll(self._choose(now), now)
+
+    def _start_poll(self, choice: int, now: float) -> PollRequest:
+        """Put a poll of the follower at ``choice`` in the table in flight."""
+        follower = self.table.ids[choice]
+        peer = self.table.peers[follower]
         self._poll_seq += 1
         self._control_seq += 1
         self.polls += 1
@@ -210,14 +250,14 @@ class Leader:
 
     def _unanswered(self, flight: PollRequest, now: float) -> list[Event]:
         peer = self.table.peers[flight.follower]
+        self._in_flight = None
         self._complete(flight, peer, answered=False, now=now)
         peer.timeouts += 1
         self.table.sync(flight.follower)
         return [TimedOut(flight.follower, flight.poll_seq)]
 
     def _complete(self, flight: PollRequest, peer: Peer, answered: bool, now: float) -> None:
-        """The poll in flight is over (the caller syncs the policy arrays)."""
-        self._in_flight = None
+        """The poll ``flight`` is over (the caller syncs the policy arrays)."""
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * max(now - flight.sent_at, 1e-6)
         cfg = self.config
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
@@ -230,7 +270,7 @@ class Leader:
 
     def accept_reply(self, follower: str, data: bytes, now: float) -> list[Event]:
         """The first step of ``on_reply``: enough for ``poll`` to choose well."""
-        events = [] if self._unsettled is None else self.settle()
+        events = [] if self._unsettled is None and self._answered is None else self.settle()
         peer = self.table.peers.get(follower)
         if peer is None:
             self.unknown_replies += 1
@@ -251,11 +291,72 @@ class Leader:
             peer.errors += 1
             events.append(Rejected(follower, f"reply claims to come from {reply.follower!r}"))
             return events
+        self._in_flight = None
+        self._take_answer(Answered(flight, peer, reply, now), events)
+        return events
+
+    def _take_answer(self, answered: Answered, events: list[Event]) -> None:
+        flight, peer, reply, now = answered.flight, answered.peer, answered.reply, answered.now
         self._complete(flight, peer, answered=True, now=now)
         peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
-        self._take_fragment(follower, peer, reply, now, events)
-        self.table.sync(follower)
-        return events
+        self._take_fragment(flight.follower, peer, reply, now, events)
+        self.table.sync(flight.follower)
+
+    def prepare(self) -> None:
+        """While a poll is in flight: pick whom to poll after it among the other
+        followers, with ages as at the reply's expected time (sent + the mean poll
+        duration). Skipped (``reply_and_poll`` then declines) unless the policy ranks
+        by an index, nobody is silent and no earlier reply waits for ``settle``."""
+        self._prepared = None
+        flight, table, policy = self._in_flight, self.table, self.policy
+        if (flight is None or not isinstance(policy, IndexPolicy) or len(table) < 2
+                or table.silent or self._answered is not None or self._unsettled is not None):
+            return
+        at, slot, polled = flight.sent_at + self.slot, self.slot, table.index(flight.follower)
+        if table.few:
+            values = [policy.index(w, p, max(at - tau, 0.0) / slot)
+                      for w, p, tau in zip(table.w, table.p, table.tau, strict=True)]
+            values[polled] = -math.inf
+            best = max(values)
+            choice = values.index(best)  # the first of equals, as the policies' own pick
+        else:
+            wa, pa, taua = table.arrays()
+            indices = policy.index(wa, pa, np.maximum(at - taua, 0.0) / slot)
+            indices[polled] = -np.inf
+            choice = int(np.argmax(indices))
+            best = float(indices[choice])
+        self._prepared = Prepared(flight.poll_seq, at, choice, best, policy.index)
+
+    def reply_and_poll(self, follower: str, data: bytes, now: float) -> PollRequest | None:
+        """``accept_reply`` then ``poll`` in one step, most of the first left for
+        ``settle``: if ``data`` is a valid answer to the poll in flight with nothing new
+        or a whole update in one fragment, and the polled follower's new index (at the
+        time ``prepare`` used) does not beat ``prepare``'s pick, the poll is over and the
+        pick's poll is returned, in flight. None, with nothing changed, otherwise (bad or
+        stale input, a fragment of a larger update, the follower still first, nothing
+        prepared): the shell then takes the usual path."""
+        prepared, self._prepared = self._prepared, None
+        flight = self._in_flight
+        if prepared is None or flight is None or flight.follower != follower:
+            return None
+        peer = self.table.peers[follower]
+        try:
+            reply = decode_reply(data, peer.expected)
+        except WireError:
+            return None
+        frag = reply.fragment
+        if (reply.poll_seq != prepared.poll_seq or reply.follower != follower
+                or (frag is not None and frag.count != 1)):
+            return None
+        fresh_from = now if frag is None else peer.clock.to_leader(frag.generated_at)
+        age = max(prepared.at - max(peer.policy_tau, fresh_from), 0.0) / self.slot
+        i = self.table.index(follower)
+        value = prepared.index(self.table.w[i], peer.reliability.after(True), age)
+        if value > prepared.value or (value == prepared.value and i < prepared.choice):
+            return None
+        self._in_flight = None
+        self._answered = Answered(flight, peer, reply, now)
+        return self._start_poll(prepared.choice, now)
 
     def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float,
                        events: list[Event]) -> None:
@@ -278,10 +379,20 @@ class Leader:
             self._unsettled = Unsettled(follower, peer, frag, whole, generated_at, now)
 
     def settle(self) -> list[Event]:
-        """The second step of ``on_reply`` for the update accepted last (if any)."""
+        """The second step of ``on_reply`` for the update accepted last (if any), and
+        all of it for a reply taken by ``reply_and_poll``."""
+        events: list[Event] = []
+        answered, self._answered = self._answered, None
+        if answered is not None:
+            self._take_answer(answered, events)
         unsettled, self._unsettled = self._unsettled, None
         if unsettled is None:
-            return []
+            return events
+        events.extend(self._verify(unsettled))
+        return events
+
+    def _verify(self, unsettled: Unsettled) -> list[Event]:
+        """Checksum, AoI and delivery of an update taken whole."""
         follower, peer, frag = unsettled.follower, unsettled.peer, unsettled.frag
         peer.unsettled_tau = float("-inf")
         try:

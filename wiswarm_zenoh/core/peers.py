@@ -149,6 +149,10 @@ class PeerTable:
         """numpy views of w, p and tau (no copy: drop them before the next add or remove)."""
         return np.frombuffer(self.w), np.frombuffer(self.p), np.frombuffer(self.tau)
 
+    def index(self, follower: str) -> int:
+        """Where ``follower`` is in the columns."""
+        return self._index[follower]
+
     def add(self, follower: str, peer: Peer) -> None:
         self._index[follower] = len(self.ids)
         self.ids.append(follower)
