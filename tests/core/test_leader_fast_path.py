@@ -145,6 +145,13 @@ def test_declines_when_nothing_was_prepared_or_the_swarm_changed() -> None:
     _declines(leader, request, raw)
 
 
+def test_declines_for_a_late_reply() -> None:
+    leader, _, request, raw = _prepared_exchange()
+    late = request.sent_at + 2 * leader.slot + 0.001  # the ages prepared are off by more
+    assert leader.reply_and_poll(request.follower, raw, late) is None
+    assert leader.in_flight == request.follower
+
+
 def test_declines_for_a_policy_without_an_index() -> None:
     leader, followers = _swarm(3, LeaderConfig(policy="round-robin"))
     request = poll(leader, 0.01)

@@ -314,8 +314,8 @@ class Leader:
             return
         at, slot, polled = flight.sent_at + self.slot, self.slot, table.index(flight.follower)
         if table.few:
-            values = [policy.index(w, p, max(at - tau, 0.0) / slot)
-                      for w, p, tau in zip(table.w, table.p, table.tau, strict=True)]
+            values = policy.indices(table.w, table.p,
+                                    [max(at - tau, 0.0) / slot for tau in table.tau])
             values[polled] = -math.inf
             best = max(values)
             choice = values.index(best)  # the first of equals, as the policies' own pick
@@ -333,11 +333,13 @@ class Leader:
         or a whole update in one fragment, and the polled follower's new index (at the
         time ``prepare`` used) does not beat ``prepare``'s pick, the poll is over and the
         pick's poll is returned, in flight. None, with nothing changed, otherwise (bad or
-        stale input, a fragment of a larger update, the follower still first, nothing
-        prepared): the shell then takes the usual path."""
+        stale input, a fragment of a larger update, the follower still first, a reply
+        later than twice the mean poll duration, nothing prepared): the shell then takes
+        the usual path."""
         prepared, self._prepared = self._prepared, None
         flight = self._in_flight
-        if prepared is None or flight is None or flight.follower != follower:
+        if (prepared is None or flight is None or flight.follower != follower
+                or now > prepared.at + self.slot):  # late: the ages prepared are too old
             return None
         peer = self.table.peers[follower]
         try:

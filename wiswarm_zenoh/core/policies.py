@@ -10,7 +10,6 @@ the injected generator.
 
 from __future__ import annotations
 
-import math
 import random
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
@@ -50,13 +49,13 @@ class IndexPolicy(ABC):
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
         return int(np.argmax(self.index(w, p, h)))
 
+    def indices(self, w: Floats, p: Floats, h: Floats) -> list[float]:
+        """The index of each follower, on plain floats."""
+        return list(map(self.index, w, p, h))
+
     def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
-        index = self.index
-        best, best_value = 0, -math.inf
-        for i, value in enumerate(map(index, w, p, h)):
-            if value > best_value:  # strict: the first of equals wins, as np.argmax
-                best, best_value = i, value
-        return best
+        values = self.indices(w, p, h)
+        return values.index(max(values))  # the first of equals, as np.argmax
 
 
 @dataclass(frozen=True)
@@ -96,12 +95,11 @@ class Whittle(IndexPolicy):
         general: X = 2.0 * w * p * (h * cost.f(h) - cost.integral(h))
         return general
 
-    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+    def indices(self, w: Floats, p: Floats, h: Floats) -> list[float]:
         if self.cost is not LINEAR_COST:
-            return super().choose_few(w, p, h)
+            return super().indices(w, p, h)
         # The paper's index in one comprehension: no call per follower on every poll.
-        values = [wi * pi * hi * hi for wi, pi, hi in zip(w, p, h, strict=True)]
-        return values.index(max(values))  # the first of equals, as np.argmax
+        return [wi * pi * hi * hi for wi, pi, hi in zip(w, p, h, strict=True)]
 
 
 class WhittleExact(IndexPolicy):

@@ -9,10 +9,13 @@ Zenoh's closing of that ``get`` (the follower's final message) is not waited for
 key, say) is handed to the core later, which counts it as stale or rejected. Only if
 Zenoh closes the ``get`` with no valid reply (the timeout) is the core told so.
 
-Between a reply and the next poll the loop does only what choosing that poll needs: the
-core's ``accept_reply``. The rest (``settle``: checksum, AoI, the delivery) and handing
-the delivery on (``fresh`` re-publication, ``on_delivery``) run right after the next
-poll is sent, so that they overlap its round trip.
+While a poll is out, the core picks whom to poll next if the reply comes as usual
+(``prepare``); when it comes, ``reply_and_poll`` checks it against that pick and the next
+poll goes out at once. The rest of taking the reply (the poll's outcome, the clock,
+reassembly, checksum, AoI, the delivery), the ``fresh`` re-publication and
+``on_delivery`` run while that next poll is on its way. When the core declines (bad
+input, a fragment of a larger update, the polled follower still first in line), the
+reply is taken the usual way: ``accept_reply``, then ``poll``.
 """
 
 from __future__ import annotations
@@ -28,7 +31,15 @@ from typing import TypeVar
 
 import zenoh
 
-from wiswarm_zenoh.core import Delivered, Event, Leader, LeaderConfig, Rejected, Stale
+from wiswarm_zenoh.core import (
+    Delivered,
+    Event,
+    Leader,
+    LeaderConfig,
+    PollRequest,
+    Rejected,
+    Stale,
+)
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
@@ -43,6 +54,7 @@ from wiswarm_zenoh.transport.telemetry import (
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
+Outstanding = tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]  # a poll sent, and its replies
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
@@ -174,58 +186,83 @@ class LeaderNode:
 
     def _run(self) -> None:
         try:
+            out: Outstanding | None = None  # the poll in flight, once sent
             while not self._stop.is_set():
                 if self._changes:
                     self._apply_changes()
                 now = self._clock()
                 if now >= self._next_stats:
                     self._publish_stats(now)
-                with self._lock:
-                    request = self._leader.poll(now)
-                    version = self._control_version
-                if request is None:
-                    self._settle()
-                    self._wake.wait(max(0.0, self._next_stats - now))
-                    self._wake.clear()
-                    continue
-                sent_version, sent_at = self._control_sent
-                if version != sent_version or now - sent_at >= self._control_period:
-                    self._control.put(request.control)
-                    self._control_sent = (version, now)
-                self._poll(self._links[request.follower], request.payload)
+                if out is None:
+                    with self._lock:
+                        request = self._leader.poll(now)
+                        version = self._control_version
+                    if request is None:
+                        self._settle()
+                        self._wake.wait(max(0.0, self._next_stats - now))
+                        self._wake.clear()
+                        continue
+                    out = self._send(request, version, now)
+                out = self._await(*out)
         finally:
             self._settle()
 
-    def _poll(self, link: FollowerLink, payload: bytes) -> None:
-        """Send one poll and hand its replies to the core until one completes it (the
-        get is then kept aside, see the module's docstring) or Zenoh closes the get."""
-        replies = link.querier.get(payload=payload)
+    def _send(self, request: PollRequest, version: int, now: float) -> Outstanding:
+        """Send a poll (and the control information, when due)."""
+        sent_version, sent_at = self._control_sent
+        if version != sent_version or now - sent_at >= self._control_period:
+            self._control.put(request.control)
+            self._control_sent = (version, now)
+        link = self._links[request.follower]
+        return link, link.querier.get(payload=request.payload)
+
+    def _await(self, link: FollowerLink, replies: zenoh.Handler[zenoh.Reply]) -> Outstanding | None:
+        """Hand the poll's replies to the core until one completes it (the get is then
+        kept aside, see the module's docstring) or Zenoh closes the get. Returns the
+        next poll if the core sent it on the fast path (``reply_and_poll``)."""
         self._settle()  # the last poll's, while this one is on its way
         if len(self._late) >= LATE_BATCH:
             self._drain_late()
+        with self._lock:
+            self._leader.prepare()
         for reply in replies:
-            if self._take(link, reply):
+            now = self._clock()
+            data = self._payload(link, reply)
+            if data is None:
+                continue
+            with self._lock:
+                request = self._leader.reply_and_poll(link.follower, data, now)
+                version = self._control_version
+            if request is not None:
                 self._late.append((link, replies))
-                return
+                return self._send(request, version, now)
+            if self._take(link, data, now):
+                self._late.append((link, replies))
+                return None
         with self._lock:  # closed with no valid reply: the core counts the poll unanswered
             events = self._leader.finish_poll(self._clock())
         self._dispatch(events)
+        return None
 
-    def _take(self, link: FollowerLink, reply: zenoh.Reply) -> bool:
-        """Hand one reply to the core; True if it completed the poll in flight."""
-        now = self._clock()
+    def _payload(self, link: FollowerLink, reply: zenoh.Reply) -> bytes | None:
+        """A reply's bytes, or None for an error reply or one over the size limit (counted
+        and logged; a timeout is no error: ``finish_poll`` counts it)."""
         sample = reply.ok
         if sample is None:
             reason = b"" if reply.err is None else reply.err.payload.to_bytes()[:80]
-            if reason != ZENOH_TIMEOUT:  # a timeout is no error: finish_poll counts it
+            if reason != ZENOH_TIMEOUT:
                 self._transport_errors[link.follower] += 1
                 self.bad_input.report(link.key, f"error reply {reason!r}")
-            return False
+            return None
         data = sample.payload.to_bytes()  # Zenoh holds it whole already: copy, then judge
         if len(data) > self._max_reply:
             self._transport_errors[link.follower] += 1
             self.bad_input.report(link.key, f"reply of {len(data)} bytes exceeds the limit")
-            return False
+            return None
+        return data
+
+    def _take(self, link: FollowerLink, data: bytes, now: float) -> bool:
+        """Hand one reply to the core; True if it completed the poll in flight."""
         with self._lock:
             events = self._leader.accept_reply(link.follower, data, now)
             done = self._leader.in_flight is None
@@ -249,7 +286,8 @@ class LeaderNode:
         for link, replies in self._late:
             try:
                 while (reply := replies.try_recv()) is not None:
-                    self._take(link, reply)
+                    if (data := self._payload(link, reply)) is not None:
+                        self._take(link, data, self._clock())
             except zenoh.ZError:  # closed: Zenoh has delivered all it will
                 continue
             open_gets.append((link, replies))
@@ -277,6 +315,7 @@ class LeaderNode:
                 _notify(self._on_delivery, event)
 
     def _apply_changes(self) -> None:
+        self._settle()  # a reply taken on the fast path, before its follower changes
         while self._changes:
             follower, joined = self._changes.popleft()
             now = self._clock()
