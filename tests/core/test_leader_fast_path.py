@@ -5,6 +5,7 @@ taken that way is delivered at ``settle`` like any other."""
 from __future__ import annotations
 
 import dataclasses
+import random
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -19,6 +20,7 @@ from wiswarm_zenoh.core import (
     PollRequest,
     Rejected,
 )
+from wiswarm_zenoh.core.peers import FEW
 from wiswarm_zenoh.core.wire import FragmentData, Reply, decode_reply, encode_reply
 
 from .drive import poll
@@ -51,28 +53,23 @@ def _delivered(events: list[Event]) -> list[tuple[str, bytes, float]]:
     return [(e.follower, e.payload, e.generated_at) for e in events if isinstance(e, Delivered)]
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    n=st.integers(2, 6),
-    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
-    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
-)
-def test_the_fast_path_picks_what_the_usual_path_picks(
-        n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
+def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]) -> int:
+    """Two swarms fed the same frames: one leader takes every reply the usual way, the
+    other on the fast path where it can. Both must poll the same followers in the same
+    order and deliver the same updates. Returns how many polls took the fast path."""
     usual, usual_followers = _swarm(n)
     fast, fast_followers = _swarm(n)
     for leader in (usual, fast):
-        for i in range(n):
-            leader.observe_urgency(f"uav{i}", weights[i])
+        for i, weight in enumerate(weights[:n]):
+            leader.observe_urgency(f"uav{i}", weight)
     usual_request, fast_request = poll(usual, 0.0), poll(fast, 0.0)
     usual_events: list[Event] = []
     fast_events: list[Event] = []
     fast_polls = 0
     for step, (who, made_before) in enumerate(offers):
-        # The same frames reach both swarms; then each leader takes the reply in flight.
         for followers in (usual_followers, fast_followers):
-            followers[f"uav{who % n}"].offer(FRAME + bytes([step]), usual_request.sent_at
-                                             - made_before)
+            followers[f"uav{who % n}"].offer(FRAME + bytes([step % 256]),
+                                             usual_request.sent_at - made_before)
         fast.prepare()
         arrives = fast_request.sent_at + fast.slot  # when prepare expected it: same ages
         next_fast = fast.reply_and_poll(fast_request.follower,
@@ -88,7 +85,26 @@ def test_the_fast_path_picks_what_the_usual_path_picks(
         fast_request = next_fast
         assert fast_request.follower == usual_request.follower, step
     assert _delivered(fast_events) == _delivered(usual_events)
-    assert fast_polls >= len(offers) // 2  # most polls take the fast path
+    return fast_polls
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(2, 6),
+    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
+    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
+)
+def test_the_fast_path_picks_what_the_usual_path_picks(
+        n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
+    assert _compare_paths(n, weights, offers) >= len(offers) // 2  # mostly fast
+
+
+def test_the_fast_path_picks_what_the_usual_path_picks_among_many() -> None:
+    n = FEW + 6  # numpy's side of prepare
+    rng = random.Random(3)
+    weights = [rng.uniform(0.1, 10.0) for _ in range(n)]
+    offers = [(rng.randrange(n), rng.uniform(0.0, 0.002)) for _ in range(300)]
+    assert _compare_paths(n, weights, offers) >= 150
 
 
 def _prepared_exchange(n: int = 3) -> tuple[Leader, dict[str, Follower], PollRequest, bytes]:

@@ -331,7 +331,8 @@ class Leader:
         """``accept_reply`` then ``poll`` in one step, most of the first left for
         ``settle``: if ``data`` is a valid answer to the poll in flight with nothing new
         or a whole update in one fragment, and the polled follower's new index (at the
-        time ``prepare`` used) does not beat ``prepare``'s pick, the poll is over and the
+        time ``prepare`` used, its clock offset as estimated before this reply) does not
+        beat ``prepare``'s pick, the poll is over and the
         pick's poll is returned, in flight. None, with nothing changed, otherwise (bad or
         stale input, a fragment of a larger update, the follower still first, a reply
         later than twice the mean poll duration, nothing prepared): the shell then takes

@@ -110,7 +110,7 @@ class LeaderNode:
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._links: dict[str, FollowerLink] = {}
-        self._late: list[tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]] = []
+        self._late: list[Outstanding] = []  # gets whose poll is over, still open
         self._delivered: list[Delivered] = []  # not handed over yet
         self._transport_errors: Counter[str] = Counter()
         self.bad_input = BadInputLog(log)
