@@ -91,6 +91,12 @@ class Answered:
     now: float
 
 
+def _ages_in_slots(taus: Sequence[float], now: float, slot: float) -> list[float]:
+    """Each age at ``now`` (0 for a time-stamp ahead of it), in slots; plain floats, no
+    ``max`` call per follower (the scheduler runs this on every poll)."""
+    return [(now - tau) / slot if now > tau else 0.0 for tau in taus]
+
+
 class Leader:
     """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
 
@@ -226,7 +232,7 @@ class Leader:
             tau: Sequence[float] = table.tau
             if live is not None:
                 w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
-            return self.policy.choose_few(w, p, [max(now - t, 0.0) / slot for t in tau])
+            return self.policy.choose_few(w, p, _ages_in_slots(tau, now, slot))
         wa, pa, taua = table.arrays()
         if live is not None:
             wa, pa, taua = wa[live], pa[live], taua[live]
@@ -314,8 +320,7 @@ class Leader:
             return
         at, slot, polled = flight.sent_at + self.slot, self.slot, table.index(flight.follower)
         if table.few:
-            values = policy.indices(table.w, table.p,
-                                    [max(at - tau, 0.0) / slot for tau in table.tau])
+            values = policy.indices(table.w, table.p, _ages_in_slots(table.tau, at, slot))
             values[polled] = -math.inf
             best = max(values)
             choice = values.index(best)  # the first of equals, as the policies' own pick
