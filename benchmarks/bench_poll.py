@@ -137,8 +137,9 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
 
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
-                 control_period: float) -> tuple[float, list[dict[str, Any]]]:
-    """(b): polls/s of the LeaderNode, and its per-follower stats at the end."""
+                 control_period: float) -> tuple[float, list[dict[str, Any]], float]:
+    """(b): polls/s of the LeaderNode, its per-follower stats at the end, and the share
+    of its polls sent on the fast path (``reply_and_poll``)."""
     joined: list[str] = []
     everyone = threading.Event()
 
@@ -153,12 +154,13 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
         while node.polls < WARM_UP_ROUNDS * n:
             time.sleep(0.001)
-        start, polls0 = time.perf_counter(), node.polls
+        start, polls0, fast0 = time.perf_counter(), node.polls, node.fast_polls
         time.sleep(seconds)
-        rate = (node.polls - polls0) / (time.perf_counter() - start)
+        polls, fast = node.polls - polls0, node.fast_polls - fast0
+        rate = polls / (time.perf_counter() - start)
         time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
         stats = list(node.latest)
-    return rate, stats
+    return rate, stats, fast / max(polls, 1)
 
 
 def measure(n: int, args: argparse.Namespace) -> None:
@@ -185,17 +187,18 @@ def measure(n: int, args: argparse.Namespace) -> None:
         with node_spec.open() as session:
             wait_for_routes(session, followers, args.timeout)
             bare_round(session, followers, 0.5, args.timeout)  # warm up
-            bare, leader, stats = [], [], []
+            bare, leader, stats, fast_shares = [], [], [], []
             for i in range(args.rounds):  # in pairs, alternately (b) first: drift cancels
                 if i % 2:
-                    rate, stats = leader_round(session, n, args.seconds, config,
-                                               args.control_period)
+                    rate, stats, fast = leader_round(session, n, args.seconds, config,
+                                                     args.control_period)
                 bare.append(bare_round(session, followers, args.seconds, args.timeout))
                 if not i % 2:
-                    rate, stats = leader_round(session, n, args.seconds, config,
-                                               args.control_period)
+                    rate, stats, fast = leader_round(session, n, args.seconds, config,
+                                                     args.control_period)
                 leader.append(rate)
-        report(n, args, bare, leader, stats)
+                fast_shares.append(fast)
+        report(n, args, bare, leader, stats, statistics.median(fast_shares))
     finally:
         for proc in procs:
             proc.terminate()
@@ -206,7 +209,7 @@ def measure(n: int, args: argparse.Namespace) -> None:
 
 
 def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[float],
-           stats: list[dict[str, Any]]) -> None:
+           stats: list[dict[str, Any]], fast_share: float) -> None:
     a, b = statistics.median(bare), statistics.median(leader)
     s = 1.0 / a
     floor = s * (n / 2 + 1)
@@ -220,7 +223,8 @@ def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[flo
     print(f"  (a) bare get loop   {a:8.0f} polls/s   (rounds: "
           f"{', '.join(f'{x:.0f}' for x in bare)})   S = {s * 1e3:.3f} ms")
     print(f"  (b) leader loop     {b:8.0f} polls/s   (rounds: "
-          f"{', '.join(f'{x:.0f}' for x in leader)})")
+          f"{', '.join(f'{x:.0f}' for x in leader)})   "
+          f"{fast_share:.0%} sent the moment the reply before came")
     paired = sorted(y / x for x, y in zip(bare, leader, strict=True))
     low, median, high = statistics.quantiles(paired, n=4) if len(paired) > 1 else paired * 3
     print(f"  ratio (b)/(a)       {median:8.2f}   target >= 0.80   (median of the {len(paired)} "

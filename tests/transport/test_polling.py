@@ -114,3 +114,19 @@ def test_a_follower_clock_5_s_off_still_gives_the_right_age(
         made = struct.unpack_from("<d", event.payload)[0]  # true time, leader's clock
         assert abs(event.generated_at - made) < 0.005
         assert event.age < 1.0
+
+
+def test_with_two_followers_most_polls_go_out_the_moment_the_reply_before_came(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    nodes = [FollowerNode(sessions.node(port), SWARM, fid, sample_on_poll=lambda: bytes(50176))
+             for fid in ("uav1", "uav2")]
+    with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()) as leader:
+        recorder.wait("both joined", lambda r: len(r.joins) == 2)
+        recorder.wait("200 deliveries", lambda r: len(r.deliveries) >= 200)
+        polls, fast = leader.polls, leader.fast_polls
+    assert fast >= 0.5 * polls  # the rest: the first polls, before routes settle, say
+    for node in nodes:  # and the usual path's rule still holds: each in turn, equal shares
+        delivered = [d for d in recorder.deliveries if d.follower == node.follower_id]
+        assert len(delivered) >= 80
+        assert [d.update_seq for d in delivered] == sorted({d.update_seq for d in delivered})

@@ -124,6 +124,7 @@ class Leader:
         self.table = PeerTable(self.config.weight_floor)
         self.unknown_replies = 0
         self.polls = 0
+        self.fast_polls = 0  # polls sent by ``reply_and_poll``
         self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
         self._poll_seq = 0
         self._control_seq = 0
@@ -364,6 +365,7 @@ class Leader:
             return None
         self._in_flight = None
         self._answered = Answered(flight, peer, reply, now)
+        self.fast_polls += 1
         return self._start_poll(prepared.choice, now)
 
     def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float,

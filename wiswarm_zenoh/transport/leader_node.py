@@ -142,6 +142,11 @@ class LeaderNode:
     def polls(self) -> int:
         return self._leader.polls
 
+    @property
+    def fast_polls(self) -> int:
+        """Polls sent the moment the reply before them came (see the module's docstring)."""
+        return self._leader.fast_polls
+
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """New control information for one follower, broadcast with the next poll."""
         with self._lock:
