@@ -242,6 +242,7 @@ class Leader:
         return events
 
     def _take_answer(self, answered: Answered, events: list[Event]) -> None:
+        """A valid answer's effects: the poll's outcome, the clock, the fragment."""
         flight, peer, reply, now = answered.flight, answered.peer, answered.reply, answered.now
         self._complete(flight, peer, answered=True, now=now)
         peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
@@ -277,11 +278,10 @@ class Leader:
         ``settle``: if ``data`` is a valid answer to the poll in flight with nothing new
         or a whole update in one fragment, and the polled follower's new index (at the
         time ``prepare`` used, its clock offset as estimated before this reply) does not
-        beat ``prepare``'s pick, the poll is over and the
-        pick's poll is returned, in flight. None, with nothing changed, otherwise (bad or
-        stale input, a fragment of a larger update, the follower still first, a reply
-        later than twice the mean poll duration, nothing prepared): the shell then takes
-        the usual path."""
+        beat ``prepare``'s pick, the poll is over and the pick's poll is returned, in
+        flight. None, with nothing changed, otherwise (bad or stale input, a fragment of
+        a larger update, the follower still first, a reply later than twice the mean
+        poll duration, nothing prepared): the shell then takes the usual path."""
         prepared, self._prepared = self._prepared, None
         flight = self._in_flight
         if (prepared is None or flight is None or flight.follower != follower
