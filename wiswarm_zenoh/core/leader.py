@@ -13,7 +13,7 @@ from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
 from wiswarm_zenoh.core.fragments import verify_checksum
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
-from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
+from wiswarm_zenoh.core.policies import FloatArray, IndexPolicy, make_policy
 from wiswarm_zenoh.core.poll_records import Answered, PollRequest, Prepared, Unsettled
 from wiswarm_zenoh.core.wire import (
     Poll,
@@ -34,6 +34,13 @@ def _ages_in_slots(taus: Sequence[float], now: float, slot: float) -> list[float
     """Each age at ``now`` (0 for a time-stamp ahead of it), in slots; plain floats, no
     ``max`` call per follower (the scheduler runs this on every poll)."""
     return [(now - tau) / slot if now > tau else 0.0 for tau in taus]
+
+
+def _array_ages_in_slots(taus: FloatArray, now: float, slot: float) -> FloatArray:
+    """``_ages_in_slots`` for many followers, in one numpy pass (a new array)."""
+    ages = np.maximum(now - taus, 0.0)
+    ages /= slot
+    return ages
 
 
 class Leader:
@@ -176,9 +183,7 @@ class Leader:
         wa, pa, taua = table.arrays()
         if live is not None:
             wa, pa, taua = wa[live], pa[live], taua[live]
-        ages = np.maximum(now - taua, 0.0)
-        ages /= slot
-        return self.policy.choose(wa, pa, ages)
+        return self.policy.choose(wa, pa, _array_ages_in_slots(taua, now, slot))
 
     def next_timer(self) -> float | None:
         return None if self._in_flight is None else self._in_flight.deadline
@@ -267,7 +272,7 @@ class Leader:
             choice = values.index(best)  # the first of equals, as the policies' own pick
         else:
             wa, pa, taua = table.arrays()
-            indices = policy.index(wa, pa, np.maximum(at - taua, 0.0) / slot)
+            indices = policy.index(wa, pa, _array_ages_in_slots(taua, at, slot))
             indices[polled] = -np.inf
             choice = int(np.argmax(indices))
             best = float(indices[choice])
