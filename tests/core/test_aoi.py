@@ -110,3 +110,17 @@ def test_percentiles_asked_between_deliveries_change_nothing() -> None:
     for q in (0.0, 0.5, 0.95, 1.0):
         assert asked.percentile(q, now + 0.002) == pytest.approx(
             quiet.percentile(q, now + 0.002), rel=1e-9, abs=1e-12)
+
+
+def test_a_window_opened_mid_run_starts_at_the_age_it_finds() -> None:
+    """Window [10, 14] opens with the freshest update 3 s old: A rises 3 -> 5 until an
+    update stamped 11 arrives at 12, then 1 -> 3; an update older than the one before
+    the window is not fresh."""
+    aoi = AoITracker(10.0, initial_age=3.0)
+    assert aoi.age(10.0) == 3.0
+    assert not aoi.deliver(6.5, 11.0)
+    assert aoi.deliver(11.0, 12.0)
+    assert aoi.mean(14.0) == pytest.approx((8.0 + 4.0) / 4.0)
+    assert aoi.peak(14.0) == pytest.approx(5.0)
+    with pytest.raises(ValueError, match="initial_age"):
+        AoITracker(0.0, initial_age=-1.0)

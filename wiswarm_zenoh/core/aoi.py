@@ -13,7 +13,9 @@ FloatArray = npt.NDArray[np.float64]
 class AoITracker:
     """``A(t) = t - tau(t)``, tau being the largest time-stamp delivered so far.
 
-    Before the first delivery the age counts from ``start`` (when tracking began); an
+    Before the first delivery the age counts from ``start`` (when tracking began), or is
+    ``initial_age`` there (a measurement window opened mid-run, the freshest update so
+    far that old); an
     update generated earlier is still delivered, it just cannot make the age negative
     or lower it below zero. Freshness is judged on the time-stamps themselves
     (``newest``), so a stamp ahead of ``now`` cannot let an older one pass. The
@@ -21,10 +23,13 @@ class AoITracker:
     come from an ``AgeHistogram`` of the sawtooth, within 0.5 %, in bounded memory.
     """
 
-    def __init__(self, start: float) -> None:
+    def __init__(self, start: float, initial_age: float = 0.0) -> None:
+        if not initial_age >= 0.0:
+            raise ValueError(f"initial_age must be >= 0, got {initial_age!r}")
         self.start = start
-        self.tau = start
-        self.newest = float("-inf")
+        self.tau = start - initial_age
+        # With an initial age, an update that old was delivered: no older one is fresh.
+        self.newest = self.tau if initial_age > 0 else float("-inf")
         self.deliveries = 0
         self._last_event = start
         self._histogram = AgeHistogram()
