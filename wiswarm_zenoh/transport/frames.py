@@ -14,6 +14,15 @@ _HEADER = struct.Struct("<Qd")  # frame counter, capture time
 FRAME_HEADER_BYTES = _HEADER.size
 
 
+def capture_time(frame: bytes) -> float:
+    """When a synthetic frame was captured (its sender's clock): ground truth for AoI,
+    free of the leader's clock-offset estimate, where every node shares one clock."""
+    if len(frame) < _HEADER.size:
+        raise ValueError(f"a synthetic frame has at least {_HEADER.size} bytes, got {len(frame)}")
+    captured_at: float = _HEADER.unpack_from(frame)[1]
+    return captured_at
+
+
 class SyntheticFrames:
     """Offers a frame of ``size`` bytes every ``1/rate`` seconds from its own thread.
 

@@ -6,19 +6,25 @@ is over, on Ctrl-C, or when the process that started it is gone (nothing is orph
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import logging
 import multiprocessing
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.transport.follower_node import FollowerNode
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_RATE, SyntheticFrames
+from wiswarm_zenoh.transport.frames import (
+    FRAME_BYTES,
+    FRAME_RATE,
+    SyntheticFrames,
+    capture_time,
+)
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
@@ -108,35 +114,62 @@ class FollowerOptions:
 def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
                  ready: ReadySignal | None = None) -> None:
     """A follower sending synthetic frames until stopped."""
-    with spec.open() as session, FollowerNode(
-        session, options.swarm, options.follower_id, options.config
-    ) as node:
-        frames = SyntheticFrames(node.offer, options.frame_bytes, options.frame_rate)
-        frames.start()
+    run_followers(spec, [options], stop, ready)
+
+
+def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: StopSignal,
+                  ready: ReadySignal | None = None) -> None:
+    """Several followers in one host process, each with a Zenoh session of its own (as on
+    a UAV of its own): spares the CPU of a process per follower in experiments. Stops at
+    the first follower's ``duration``."""
+    with contextlib.ExitStack() as stack:
+        feeds = []
+        for option in options:
+            session = stack.enter_context(spec.open())
+            node = stack.enter_context(
+                FollowerNode(session, option.swarm, option.follower_id, option.config))
+            feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
+                                                        option.frame_rate)))
+        for _, _, frames in feeds:
+            frames.start()
+            stack.callback(frames.stop)
         if ready is not None:
             ready.set()
-        try:
-            wait_until_stopped(stop, options.duration)
-        finally:
-            frames.stop()
-        log.info("follower %s: %d frames offered, %d polls answered",
-                 options.follower_id, frames.frames, node.polls)
+        wait_until_stopped(stop, options[0].duration if options else None)
+        for option, node, frames in feeds:
+            log.info("follower %s: %d frames offered, %d polls answered",
+                     option.follower_id, frames.frames, node.polls)
 
 
 class DeliveryRecord:
     """Every delivery as a CSV row (follower, update_seq, generated_at, delivered_at,
-    bytes; leader clock): the exact AoI sawtooth, for plots."""
+    bytes; leader clock): the exact AoI sawtooth, for plots.
+
+    With ``capture_stamps`` the generation time is the one synthetic frames carry
+    (``capture_time``) instead of the leader's estimate: ground truth where every node
+    shares one clock (the testbed), so polling and push are measured alike."""
 
     FIELDS = ("follower", "update_seq", "generated_at", "delivered_at", "bytes")
 
-    def __init__(self, path: str) -> None:
-        self._file = open(path, "w", newline="")  # noqa: SIM115 - closed by close()
+    def __init__(self, path: str, capture_stamps: bool = False) -> None:
+        # Line-buffered: a leader killed mid-run (a fault the testbed injects) keeps its rows.
+        self._file = open(path, "w", newline="", buffering=1)  # noqa: SIM115 - see close()
         self._writer = csv.writer(self._file)
         self._writer.writerow(self.FIELDS)
+        self._capture_stamps = capture_stamps
 
     def __call__(self, event: Delivered) -> None:
-        self._writer.writerow((event.follower, event.update_seq, f"{event.generated_at:.6f}",
-                               f"{event.generated_at + event.age:.6f}", len(event.payload)))
+        delivered_at = event.generated_at + event.age
+        generated_at = capture_time(event.payload) if self._capture_stamps else \
+            event.generated_at
+        self.row(event.follower, event.update_seq, generated_at, delivered_at,
+                 len(event.payload))
+
+    def row(self, follower: str, update_seq: int, generated_at: float, delivered_at: float,
+            size: int) -> None:
+        """One delivery from plain values (a receiver that is not the polling leader)."""
+        self._writer.writerow((follower, update_seq, f"{generated_at:.6f}",
+                               f"{delivered_at:.6f}", size))
 
     def close(self) -> None:
         self._file.close()
@@ -149,6 +182,7 @@ class LeaderOptions:
     duration: float | None = None
     control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
+    record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -156,7 +190,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                show: Callable[[LeaderNode], None] | None = None) -> LeaderNode:
     """The leader until stopped; ``show`` is called with the node a few times a second.
     Returns the (closed) node, whose last stats remain readable."""
-    record = DeliveryRecord(options.record) if options.record else None
+    record = (DeliveryRecord(options.record, options.record_capture_stamps)
+              if options.record else None)
     try:
         with spec.open() as session, LeaderNode(
             session, options.swarm, options.config, on_delivery=record,
