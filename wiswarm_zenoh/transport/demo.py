@@ -79,6 +79,7 @@ class Children:
     def __init__(self, ctx: SpawnContext) -> None:
         self._ctx = ctx
         self._procs: dict[str, SpawnProcess] = {}
+        self._targets: dict[str, tuple[Callable[..., object], tuple[Any, ...]]] = {}
         self._starting: list[tuple[SpawnProcess, ProcessEvent]] = []  # not yet ready
 
     def start(self, name: str, target: Callable[..., object], *args: Any,
@@ -87,6 +88,20 @@ class Children:
         once it (and every child started before it) says it is ready."""
         if name in self._procs:
             raise ValueError(f"a child named {name!r} was already started")
+        self._targets[name] = (target, args)
+        self._launch(name, wait)
+
+    def restart(self, name: str, wait: bool = True) -> None:
+        """Start child ``name`` again, as it was first started (it has ended: a fault
+        the run survives); its exit code is logged."""
+        old = self._procs[name]
+        if old.is_alive():
+            raise ValueError(f"child {name!r} is still running")
+        log.warning("%s ended (exit code %s): starting it again", name, old.exitcode)
+        self._launch(name, wait)
+
+    def _launch(self, name: str, wait: bool) -> None:
+        target, args = self._targets[name]
         ready = self._ctx.Event()
         proc = self._ctx.Process(target=run_child, args=(target, args, ready), name=name)
         proc.start()
