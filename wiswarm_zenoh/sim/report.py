@@ -54,23 +54,33 @@ def _series(points: Sequence[Point], label: str) -> list[Point]:
 
 
 def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str,
-                   fixed_rate: float, log: bool) -> None:
-    """Two panels like the paper's: (a) fixed-rate baselines, (b) rate-optimised ones."""
+                   fixed_rate: float, log: bool, baselines: Sequence[str] = BASELINES,
+                   model: Sequence[Point] = ()) -> None:
+    """Two panels like the paper's: (a) fixed-rate baselines, (b) rate-optimised ones.
+    ``model`` points (same labels) are drawn dashed beside the measured ones, in the
+    same colour: the simulator's curve for the channel that was measured."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=log)
+    fig, axes = plt.subplots(1, 2, figsize=(11 if model else 10, 4.5 if model else 4),
+                             sharey=log)
     panels = (
-        ("(a) fixed rate", [f"{b}@{fixed_rate:g}" for b in BASELINES]),
-        ("(b) optimised rate", [f"{b}-opt" for b in BASELINES]),
+        ("(a) fixed rate", [f"{b}@{fixed_rate:g}" for b in baselines]),
+        ("(b) optimised rate", [f"{b}-opt" for b in baselines]),
     )
     for ax, (title, labels) in zip(axes, panels, strict=True):
         for label in [*labels, "wiswarm"]:
             series = _series(points, label)
-            ax.errorbar([p.n for p in series], [p.mean[metric] for p in series],
-                        yerr=[p.std[metric] for p in series], marker="o", capsize=3, label=label)
+            drawn = ax.errorbar([p.n for p in series], [p.mean[metric] for p in series],
+                                yerr=[p.std[metric] for p in series], marker="o", capsize=3,
+                                label=label)
+            modelled = _series(model, label)
+            if modelled:
+                ax.plot([p.n for p in modelled], [p.mean[metric] for p in modelled],
+                        linestyle="--", marker="x", color=drawn.lines[0].get_color(),
+                        alpha=0.7, label=f"{label} (model)")
         ax.set_title(title)
         ax.set_xticks(sorted({p.n for p in points}))
         ax.set_xlabel("number of UAVs N")
@@ -78,7 +88,7 @@ def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str
         if log:
             ax.set_yscale("log")
         ax.grid(True, alpha=0.3)
-        ax.legend()
+        ax.legend(fontsize=7 if model else None)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -112,7 +122,13 @@ def plot_against_rate(path: Path, points: Sequence[Point], n: int) -> None:
     plt.close(fig)
 
 
-def gains_table(points: Sequence[Point], config: SweepConfig, ns: Sequence[int]) -> str:
+# What the paper's two baselines correspond to among a Zenoh user's: reliable push is
+# WiFi-TCP's delivery, best-effort push WiFi-UDP's.
+PAPER_EQUIVALENT = {"push-block": "tcp", "push-drop": "udp"}
+
+
+def gains_table(points: Sequence[Point], fixed_rate: float, ns: Sequence[int],
+                baselines: Sequence[str] = BASELINES) -> str:
     """Markdown: baseline / WiSwarm for AoI, WiSwarm / baseline for throughput."""
     lines = [
         "| N | baseline | rate (fps) | mean AoI gain | p95 AoI gain | throughput gain "
@@ -124,17 +140,21 @@ def gains_table(points: Sequence[Point], config: SweepConfig, ns: Sequence[int])
         ours = index.get(("wiswarm", n))
         if ours is None:
             continue
-        for system in BASELINES:
-            for kind, label in (("fixed", f"{system}@{config.fixed_rate:g}"),
+        for system in baselines:
+            paper_system = PAPER_EQUIVALENT.get(system, system)
+            for kind, label in (("fixed", f"{system}@{fixed_rate:g}"),
                                 ("opt", f"{system}-opt")):
-                base = index[(label, n)]
+                base = index.get((label, n))
+                if base is None:
+                    continue
                 gains = [
                     base.mean["mean_aoi_s"] / ours.mean["mean_aoi_s"],
                     base.mean["p95_aoi_s"] / ours.mean["p95_aoi_s"],
                     ours.mean["throughput_mbps"] / max(base.mean["throughput_mbps"], 1e-12),
                 ]
                 paper = " / ".join(
-                    PAPER_GAINS.get((n, f"{system}-{kind}", m), PAPER_GAINS.get((n, kind, m), "-"))
+                    PAPER_GAINS.get((n, f"{paper_system}-{kind}", m),
+                                    PAPER_GAINS.get((n, kind, m), "-"))
                     for m in ("mean_aoi_s", "p95_aoi_s", "throughput_mbps")
                 )
                 rate = f"{base.rate:g}" if base.rate is not None else "-"
@@ -167,5 +187,5 @@ def write_report(out: Path, config: SweepConfig, results: Sequence[WifiResult],
         "Gain = baseline / WiSwarm for AoI, WiSwarm / baseline for throughput; "
         "`-opt` = the grid rate with the lowest mean AoI at that N.\n\n"
     )
-    files[-1].write_text(header + gains_table(points, config, table_ns))
+    files[-1].write_text(header + gains_table(points, config.fixed_rate, table_ns))
     return files
