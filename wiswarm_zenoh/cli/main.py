@@ -19,6 +19,7 @@ from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 SUBCOMMAND_MODULES: tuple[str, ...] = (
     "wiswarm_zenoh.cli.nodes",
     "wiswarm_zenoh.cli.sim",
+    "wiswarm_zenoh.cli.testbed",
     "apps.tracking.cli",
 )
 

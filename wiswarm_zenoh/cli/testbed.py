@@ -1,0 +1,224 @@
+"""``wiswarm testbed up|down|status|set``: the emulated shared channel by hand (Linux, root).
+
+``up`` builds a persistent channel (two network namespaces, a veth pair, tbf on both
+ends) and says how to start nodes inside it; ``set`` changes its rate mid-run,
+``status`` shows what crossed it, ``down`` removes it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from typing import Any
+
+from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.testbed import (
+    Channel,
+    ChannelSpec,
+    LinkCounters,
+    TestbedUnavailable,
+    check_available,
+    list_channels,
+    remove_channel,
+)
+from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
+from wiswarm_zenoh.units import format_rate, parse_rate, parse_seconds
+
+_SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)
+_SIZE_UNITS = {None: 1, "b": 1, "k": 1024, "kb": 1024, "m": 1024**2, "mb": 1024**2}
+
+
+def parse_size(text: str) -> int:
+    """``32kb`` -> 32768 bytes, in tc's spelling (k/kb = 1024 bytes, m/mb = 1024**2)."""
+    found = _SIZE.match(text)
+    if found is None:
+        raise ValueError(f"size {text!r} is not a size: write it like 32kb or 40000 (bytes)")
+    unit = found.group(2).lower() if found.group(2) else None
+    return int(found.group(1)) * _SIZE_UNITS[unit]
+
+
+def _type(parse: Any) -> Any:
+    """An argparse type from a parser raising ValueError: its message is the one line."""
+    def convert(text: str) -> Any:
+        try:
+            return parse(text)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    return convert
+
+
+def _require() -> None:
+    """One line and exit 2 where namespaces cannot be built."""
+    try:
+        check_available()
+    except TestbedUnavailable as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _how_to_run(channel: Channel) -> str:
+    """Commands that start a router, a leader and a follower on their sides."""
+    endpoint = f"tcp/{channel.leader_addr}:{ROUTER_PORT}"
+    cfg = f"--cfg '{NO_SHARED_MEMORY}'"
+    return "\n".join((
+        "run nodes inside it (shared memory off, or frames would not cross the link):",
+        f"  ip netns exec {channel.leader_ns} wiswarm router -l {endpoint} {cfg}",
+        f"  ip netns exec {channel.leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
+        f"  ip netns exec {channel.follower_ns} wiswarm follower --swarm s1 --id uav1 "
+        f"-m client -e {endpoint} {cfg}",
+        f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
+        f"remove it:       wiswarm testbed down {channel.run_id}",
+    ))
+
+
+def _up(args: argparse.Namespace) -> int:
+    try:
+        spec = ChannelSpec(rate_bps=args.rate, queue_s=args.queue,
+                           down_rate_bps=args.down_rate, burst_bytes=args.burst)
+        channel = Channel(spec, name=args.name)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    _require()
+    try:
+        channel.build(persistent=True)
+    except ValueError as exc:  # the name is taken
+        raise UsageError(str(exc)) from None
+    print(channel.describe())
+    print(_how_to_run(channel))
+    print(f"run id: {channel.run_id}")
+    return 0
+
+
+def _down(args: argparse.Namespace) -> int:
+    _require()
+    if args.run_id is not None:
+        try:
+            remove_channel(args.run_id)
+        except LookupError:
+            raise UsageError(f"no testbed channel {args.run_id!r} (present: "
+                             f"{', '.join(list_channels()) or 'none'})") from None
+        print(f"removed testbed channel {args.run_id}")
+        return 0
+    removed = 0
+    for run_id in list_channels():
+        try:
+            remove_channel(run_id)
+        except LookupError:
+            continue  # its owner removed it meanwhile
+        print(f"removed testbed channel {run_id}")
+        removed += 1
+    if not removed:
+        print("no testbed channels to remove")
+    return 0
+
+
+def _counters(label: str, rate_bps: int, counters: LinkCounters) -> str:
+    return (f"  {label:<8} {format_rate(rate_bps):>8}: sent {counters.sent_bytes} bytes in "
+            f"{counters.sent_packets} packets, {counters.dropped} dropped, backlog "
+            f"{counters.backlog_bytes} bytes")
+
+
+def _status(args: argparse.Namespace) -> int:
+    _require()
+    shown = 0
+    for run_id in list_channels():
+        try:
+            channel = Channel.attach(run_id)
+        except LookupError:
+            continue  # removed meanwhile
+        spec = channel.spec
+        if shown:
+            print()
+        print(channel.describe())
+        print(_counters("uplink", spec.rate_bps, channel.uplink()))
+        print(_counters("downlink", spec.down_bps, channel.downlink()))
+        shown += 1
+    if not shown:
+        print("no testbed channels (make one with `wiswarm testbed up`)")
+    return 0
+
+
+def _only_channel() -> str:
+    present = list_channels()
+    if len(present) == 1:
+        return present[0]
+    if not present:
+        raise UsageError("no testbed channel: make one with `wiswarm testbed up`")
+    raise UsageError(f"{len(present)} testbed channels are present ({', '.join(present)}): "
+                     "give the run id")
+
+
+def _set(args: argparse.Namespace) -> int:
+    _require()
+    run_id = args.run_id or _only_channel()
+    try:
+        channel = Channel.attach(run_id)
+    except LookupError as exc:
+        raise UsageError(str(exc)) from None
+    before = channel.spec
+    try:
+        channel.set_rate(args.rate, args.down_rate)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    after = channel.spec
+    print(f"testbed channel {run_id}: uplink {format_rate(before.rate_bps)} -> "
+          f"{format_rate(after.rate_bps)}, downlink {format_rate(before.down_bps)} -> "
+          f"{format_rate(after.down_bps)}")
+    return 0
+
+
+def _add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
+    parser.add_argument("--rate", type=_type(parse_rate), required=rate_required,
+                        default=None if rate_required else 20_000_000, metavar="RATE",
+                        help="the shared uplink's rate, followers -> leader, in tc's "
+                             "spelling (20mbit, 500kbit)" +
+                             ("" if rate_required else "; default 20mbit"))
+    parser.add_argument("--down-rate", type=_type(parse_rate), metavar="RATE",
+                        help="the downlink's rate, leader -> followers (polls and control); "
+                             "default: as --rate")
+
+
+def register(subparsers: Any) -> None:
+    """Add ``testbed`` (up, down, status, set)."""
+    testbed = subparsers.add_parser(
+        "testbed", help="an emulated shared channel of namespaces and tc tbf (root)",
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    actions = testbed.add_subparsers(dest="action", metavar="ACTION",
+                                     parser_class=OneLineParser)
+    actions.required = True
+
+    up = actions.add_parser(
+        "up", help="build a channel that stays until `down`",
+        description="Build a persistent channel: a leader-side and a follower-side network "
+                    "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
+                    "Prints what it built, how to start nodes in it, and its run id.")
+    _add_rates(up, rate_required=False)
+    up.add_argument("--queue", type=_type(parse_seconds), default=0.2, metavar="TIME",
+                    help="how long a packet may wait in each direction's queue before tail "
+                         "drop (tbf latency), e.g. 200ms; default 200ms")
+    up.add_argument("--burst", type=_type(parse_size), default=32 * 1024, metavar="SIZE",
+                    help="the token bucket's size: bytes sent back to back at line speed "
+                         "after a pause, at least one MTU packet, e.g. 32kb; default 32kb")
+    up.add_argument("--name", help="the run id to use (default: made up, printed)")
+    up.set_defaults(func=_up)
+
+    down = actions.add_parser(
+        "down", help="remove a channel, or every one",
+        description="Remove the channel RUN_ID, or every testbed channel (wsw-* namespaces) "
+                    "when no id is given, whoever made them.")
+    down.add_argument("run_id", nargs="?", metavar="RUN_ID", help="the channel to remove")
+    down.set_defaults(func=_down)
+
+    status = actions.add_parser(
+        "status", help="channels, their rates and what crossed them",
+        description="List every channel: rates, queue, namespaces and addresses, and each "
+                    "direction's tbf counters (bytes and packets sent, tail drops, backlog).")
+    status.set_defaults(func=_status)
+
+    set_rate = actions.add_parser(
+        "set", help="change a channel's rate while nodes run",
+        description="Change the rates of a channel mid-run (tc qdisc change: queued packets "
+                    "stay). Without --down-rate the downlink takes --rate too.")
+    _add_rates(set_rate, rate_required=True)
+    set_rate.add_argument("run_id", nargs="?", metavar="RUN_ID",
+                          help="the channel (optional when exactly one exists)")
+    set_rate.set_defaults(func=_set)

@@ -1,0 +1,522 @@
+"""The emulated shared channel: two network namespaces joined by one veth pair, each
+end's egress shaped by ``tc tbf`` (``netem`` is not available everywhere; tbf is).
+
+The follower side's end carries every follower's frames to the leader side: that tbf
+is the shared uplink, the bottleneck the polling schedules. The leader side's end
+carries polls and control back, shaped too because they share the same air.
+
+Nothing outside the two namespaces a channel creates is touched. Every channel has a
+small record under ``/run/wiswarm-testbed`` naming the process that owns it, so the
+next build removes channels whose process died without cleaning up (SIGKILL);
+channels made by ``wiswarm testbed up`` are persistent and kept until ``down``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import itertools
+import json
+import logging
+import math
+import os
+import re
+import shutil
+import subprocess
+from collections.abc import Callable, Iterator
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from wiswarm_zenoh.testbed.netns import NETNS_DIR
+from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
+
+log = logging.getLogger(__name__)
+
+NS_PREFIX = "wsw-"
+LEADER_SUFFIX = "-L"
+FOLLOWER_SUFFIX = "-F"
+# Each end lives in its own namespace from creation on, so fixed names never collide.
+LEADER_IF = "wsw-L"
+FOLLOWER_IF = "wsw-F"
+STATE_DIR = Path("/run/wiswarm-testbed")
+MTU = 1500
+MAX_FRAME_BYTES = MTU + 14  # what tbf sees of a full-size packet: the Ethernet header too
+SUBNETS = range(1, 255)  # channel k: leader 10.201.k.1, follower 10.201.k.2 (/24)
+_U32 = 2**32 - 1
+_TICK_S = 64e-9  # tbf keeps its bucket as a u32 count of 64 ns ticks
+_NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,23}$")
+_counter = itertools.count()
+
+SIM_HINT = "use `wiswarm sim link`, the simulator's model of the same link"
+
+
+class TestbedUnavailable(Exception):
+    """Namespaces and qdiscs cannot be built here (not root, or ``ip``/``tc`` missing)."""
+
+    __test__ = False  # not a pytest test class, despite its name
+
+
+def unavailable_reason(euid: int, which: Callable[[str], str | None]) -> str | None:
+    """Why the testbed cannot run for this user and these tools, or None if it can."""
+    if euid != 0:
+        return ("the emulated channel needs root (it builds network namespaces and tc "
+                f"qdiscs): run it as root, or {SIM_HINT}")
+    missing = [f"`{tool}`" for tool in ("ip", "tc") if which(tool) is None]
+    if missing:
+        return (f"{' and '.join(missing)} not found: the emulated channel needs iproute2 "
+                f"(ip, tc); install it, or {SIM_HINT}")
+    return None
+
+
+def check_available() -> None:
+    """Raise TestbedUnavailable, saying which requirement is missing."""
+    reason = unavailable_reason(os.geteuid(), shutil.which)
+    if reason is not None:
+        raise TestbedUnavailable(reason)
+
+
+@dataclass(frozen=True)
+class ChannelSpec:
+    """Rates (bits/s) of both directions, the tbf queue limit (seconds) and burst."""
+
+    rate_bps: int = 20_000_000
+    queue_s: float = 0.2
+    down_rate_bps: int | None = None
+    burst_bytes: int = 32 * 1024
+
+    def __post_init__(self) -> None:
+        for name in ("rate_bps", "down_rate_bps"):
+            value = getattr(self, name)
+            if value is None and name == "down_rate_bps":
+                continue
+            if not (isinstance(value, int) and not isinstance(value, bool)
+                    and MIN_RATE_BPS <= value <= MAX_RATE_BPS):
+                raise ValueError(f"{name} must be a whole number of bits/s between "
+                                 f"{format_rate(MIN_RATE_BPS)} and "
+                                 f"{format_rate(MAX_RATE_BPS)}, got {value!r}")
+        slowest, fastest = sorted((self.rate_bps, self.down_bps))
+        if not (isinstance(self.queue_s, int | float) and math.isfinite(self.queue_s)
+                and self.queue_s > 0):
+            raise ValueError(f"queue_s must be > 0 seconds, got {self.queue_s!r}")
+        # tc rounds the bucket to whole microseconds at the rate: keep a full frame in it,
+        # or tbf drops every full-size packet.
+        least = MAX_FRAME_BYTES + math.ceil(fastest / 8e6) + 1
+        if not (isinstance(self.burst_bytes, int) and self.burst_bytes >= least):
+            raise ValueError(f"burst_bytes must be a whole number >= {least} (one {MTU}-byte "
+                             f"MTU packet at {format_rate(fastest)}), got {self.burst_bytes!r}")
+        if self.burst_bytes * 8 / slowest > _U32 * _TICK_S:
+            raise ValueError(f"burst_bytes {self.burst_bytes} lasts more than "
+                             f"{_U32 * _TICK_S:.0f} s at {format_rate(slowest)}, tbf's limit")
+        if fastest / 8 * self.queue_s + self.burst_bytes > _U32:
+            raise ValueError(f"queue_s {self.queue_s:g} s at {format_rate(fastest)} would "
+                             "hold more than 4 GB, tbf's limit")
+
+    @property
+    def down_bps(self) -> int:
+        """The leader -> followers rate (the uplink's unless set)."""
+        return self.rate_bps if self.down_rate_bps is None else self.down_rate_bps
+
+
+DEFAULT_SPEC = ChannelSpec()
+
+
+@dataclass(frozen=True)
+class LinkCounters:
+    """One direction's tbf statistics (``tc -s qdisc``), cumulative since the build."""
+
+    sent_bytes: int
+    sent_packets: int
+    dropped: int
+    overlimits: int
+    backlog_bytes: int
+
+
+@dataclass(frozen=True)
+class _Record:
+    """What ``/run/wiswarm-testbed/<run_id>.json`` keeps: owner, addresses, spec as set."""
+
+    run_id: str
+    owner_pid: int  # 0 for a persistent channel
+    owner_start: int  # the owner's start time (clock ticks), against pid reuse
+    subnet: int
+    spec: ChannelSpec
+
+    @property
+    def persistent(self) -> bool:
+        return self.owner_pid == 0
+
+    def save(self) -> None:
+        data = {"run_id": self.run_id, "owner_pid": self.owner_pid,
+                "owner_start": self.owner_start, "persistent": self.persistent,
+                "subnet": self.subnet, "spec": asdict(self.spec)}
+        path = _record_path(self.run_id)
+        temporary = path.with_suffix(".tmp")
+        temporary.write_text(json.dumps(data, indent=1) + "\n")
+        os.replace(temporary, path)
+
+    @classmethod
+    def load(cls, run_id: str) -> _Record | None:
+        """The record, or None if missing or unreadable (the channel is then unowned)."""
+        try:
+            data = json.loads(_record_path(run_id).read_text())
+            return cls(run_id, int(data["owner_pid"]), int(data["owner_start"]),
+                       int(data["subnet"]), ChannelSpec(**data["spec"]))
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            log.debug("no usable record of testbed channel %s: %s", run_id, exc)
+            return None
+
+
+def _record_path(run_id: str) -> Path:
+    return STATE_DIR / f"{run_id}.json"
+
+
+def _namespaces(run_id: str) -> tuple[str, str]:
+    return f"{NS_PREFIX}{run_id}{LEADER_SUFFIX}", f"{NS_PREFIX}{run_id}{FOLLOWER_SUFFIX}"
+
+
+def _addresses(subnet: int) -> tuple[str, str]:
+    return f"10.201.{subnet}.1", f"10.201.{subnet}.2"
+
+
+@contextlib.contextmanager
+def _locked() -> Iterator[None]:
+    """Serialise building and removing across threads and processes (flock)."""
+    STATE_DIR.mkdir(mode=0o755, parents=True, exist_ok=True)
+    with (STATE_DIR / ".lock").open("a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+
+
+def _run(*argv: str) -> str:
+    """Run ``ip``/``tc``; RuntimeError with its stderr if it fails."""
+    done = subprocess.run(argv, capture_output=True, text=True, check=False)
+    if done.returncode != 0:
+        raise RuntimeError(f"`{' '.join(argv)}` failed (exit {done.returncode}): "
+                           f"{done.stderr.strip() or 'no message'}")
+    if done.stderr.strip():
+        log.warning("`%s`: %s", " ".join(argv), done.stderr.strip())
+    return done.stdout
+
+
+def _json(*argv: str) -> list[dict[str, Any]]:
+    result: list[dict[str, Any]] = json.loads(_run(*argv) or "[]")
+    return result
+
+
+def _links(ns: str) -> set[str]:
+    return {link["ifname"] for link in _json("ip", "-n", ns, "-j", "link", "show")}
+
+
+def _ns_exists(ns: str) -> bool:
+    return (NETNS_DIR / ns).exists()
+
+
+def _tbf(ns: str, ifname: str) -> dict[str, Any]:
+    """The root tbf qdisc of ``ifname`` as ``tc -s -j`` reports it."""
+    for qdisc in _json("tc", "-n", ns, "-s", "-j", "qdisc", "show", "dev", ifname):
+        if qdisc.get("kind") == "tbf" and qdisc.get("root"):
+            return qdisc
+    raise RuntimeError(f"no tbf qdisc on {ifname} in namespace {ns}")
+
+
+def _tbf_args(rate_bps: int, spec: ChannelSpec) -> tuple[str, ...]:
+    return ("tbf", "rate", f"{rate_bps}bit", "burst", str(spec.burst_bytes),
+            "latency", f"{round(spec.queue_s * 1e6)}us")
+
+
+def _process_start(pid: int) -> int | None:
+    """The start time of a live process (not a zombie), or None if it is gone."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return None
+    fields = stat.rsplit(")", 1)[1].split()  # the name may hold spaces and parentheses
+    return None if fields[0] in ("Z", "X") else int(fields[19])  # state, starttime
+
+
+def _owned_by_live_process(record: _Record) -> bool:
+    return record.persistent or _process_start(record.owner_pid) == record.owner_start
+
+
+def list_channels() -> list[str]:
+    """Run ids of every channel present (either namespace ``wsw-<id>-L``/``-F``)."""
+    try:
+        names = os.listdir(NETNS_DIR)
+    except FileNotFoundError:
+        return []
+    least = len(NS_PREFIX) + len(LEADER_SUFFIX)
+    return sorted({name[len(NS_PREFIX):-len(LEADER_SUFFIX)] for name in names
+                   if name.startswith(NS_PREFIX) and len(name) > least
+                   and name.endswith((LEADER_SUFFIX, FOLLOWER_SUFFIX))})
+
+
+def _remove_locked(run_id: str) -> bool:
+    """Remove the veth (both ends, with their qdiscs), the namespaces and the record, and
+    verify; True if there was a channel to remove."""
+    pairs = tuple(zip(_namespaces(run_id), (LEADER_IF, FOLLOWER_IF), strict=True))
+    present = [(ns, ifname) for ns, ifname in pairs if _ns_exists(ns)]
+    for ns, ifname in present:
+        if ifname in _links(ns):
+            _run("ip", "-n", ns, "link", "del", "dev", ifname)  # takes its peer along
+    for ns, ifname in present:
+        if ifname in _links(ns):
+            raise RuntimeError(f"{ifname} is still in namespace {ns} after deleting it")
+        _run("ip", "netns", "del", ns)
+    left = [ns for ns, _ in pairs if _ns_exists(ns)]
+    if left:
+        raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
+    _record_path(run_id).unlink(missing_ok=True)
+    return bool(present)
+
+
+def remove_channel(run_id: str) -> None:
+    """Remove channel ``run_id`` whoever made it; LookupError if there is none."""
+    with _locked():
+        if not _remove_locked(run_id):
+            raise LookupError(f"no testbed channel {run_id!r}")
+    log.info("removed testbed channel %s", run_id)
+
+
+def _cleanup_locked() -> list[str]:
+    removed: list[str] = []
+    present = set(list_channels())
+    recorded = {path.stem for path in STATE_DIR.glob("*.json")}
+    for run_id in sorted(present | recorded):
+        record = _Record.load(run_id)
+        if run_id not in present:
+            _record_path(run_id).unlink(missing_ok=True)  # removed behind its owner's back
+        elif record is None or not _owned_by_live_process(record):
+            _remove_locked(run_id)
+            owner = "unknown: no record" if record is None else f"pid {record.owner_pid}"
+            log.warning("removed leftover testbed channel %s (its process, %s, is gone)",
+                        run_id, owner)
+            removed.append(run_id)
+    return removed
+
+
+def cleanup_leftovers() -> list[str]:
+    """Remove channels whose creating process is gone; returns their run ids."""
+    with _locked():
+        return _cleanup_locked()
+
+
+def _prefer(measured: float, recorded: float, slack: float) -> float:
+    """The recorded value where tc's reading differs from it by its rounding only."""
+    return recorded if abs(measured - recorded) <= slack else measured
+
+
+def _spec_from_tc(up: dict[str, Any], down: dict[str, Any],
+                  recorded: ChannelSpec | None) -> ChannelSpec:
+    """The spec tc reports (bytes/s and microseconds), in the record's exact values where
+    only tc's rounding differs, so that a spec read back equals the one set."""
+    rate, down_rate = up["rate"] * 8, down["rate"] * 8
+    burst, queue = up["burst"], up["lat"] / 1e6
+    if recorded is not None:
+        rate = int(_prefer(rate, recorded.rate_bps, 8))
+        down_rate = int(_prefer(down_rate, recorded.down_bps, 8))
+        burst = int(_prefer(burst, recorded.burst_bytes,
+                            max(rate, down_rate) / 8 * 2e-6 + 0.01 * recorded.burst_bytes))
+        queue = _prefer(queue, recorded.queue_s, 0.01 * recorded.queue_s + 2e-6)
+        if (rate, down_rate) == (recorded.rate_bps, recorded.down_bps):
+            return replace(recorded, burst_bytes=burst, queue_s=queue)
+    return ChannelSpec(rate, queue, None if down_rate == rate else down_rate, burst)
+
+
+def _counters(ns: str, ifname: str) -> LinkCounters:
+    tbf = _tbf(ns, ifname)
+    return LinkCounters(sent_bytes=tbf["bytes"], sent_packets=tbf["packets"],
+                        dropped=tbf["drops"], overlimits=tbf["overlimits"],
+                        backlog_bytes=tbf["backlog"])
+
+
+class Channel:
+    """One emulated shared link; a context manager that builds it and removes it.
+
+    ``name`` chooses the run id (letters, digits, ``-``, ``_``); by default it is the
+    process id in hex and a counter, unique among present channels.
+    """
+
+    run_id: str
+    leader_ns: str
+    follower_ns: str
+    leader_addr: str
+    follower_addr: str
+
+    def __init__(self, spec: ChannelSpec = DEFAULT_SPEC, name: str | None = None) -> None:
+        if name is not None and not _NAME.match(name):
+            raise ValueError(f"channel name {name!r}: use 1-24 letters, digits, '-' or '_'")
+        self.spec = spec
+        self.persistent = False
+        self.owner_pid: int | None = os.getpid()  # None: unknown (a channel without record)
+        self._name = name
+        self._built = False
+
+    def __enter__(self) -> Channel:
+        return self.build()
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    def _place(self, run_id: str, subnet: int) -> None:
+        self.run_id = run_id
+        self.leader_ns, self.follower_ns = _namespaces(run_id)
+        self.leader_addr, self.follower_addr = _addresses(subnet)
+
+    def build(self, *, persistent: bool = False) -> Channel:
+        """Create namespaces, veth, addresses and shapers (once; later calls return self).
+
+        ``persistent`` channels outlive this process (``wiswarm testbed up``) and are
+        never taken for leftovers; others are removed by ``close``, or by the next
+        build anywhere once this process is gone.
+        """
+        if self._built:
+            return self
+        check_available()
+        with _locked():
+            _cleanup_locked()
+            run_id = self._name or self._fresh_id()
+            if self._name is not None and (run_id in list_channels()
+                                           or _record_path(run_id).exists()):
+                raise ValueError(f"a testbed channel named {run_id!r} exists already")
+            used = {record.subnet for record in map(_Record.load, list_channels())
+                    if record is not None}
+            subnet = next((k for k in SUBNETS if k not in used), None)
+            if subnet is None:
+                raise RuntimeError(f"all {len(SUBNETS)} testbed subnets are in use: "
+                                   "remove channels with `wiswarm testbed down`")
+            self._place(run_id, subnet)
+            self.persistent = persistent
+            owner = 0 if persistent else os.getpid()
+            start = 0 if persistent else _process_start(owner)
+            _Record(run_id, owner, start or 0, subnet, self.spec).save()
+            self.persistent, self.owner_pid = persistent, owner
+            try:
+                self._create()
+            except BaseException:
+                _remove_locked(run_id)
+                raise
+        self._built = True
+        log.info("testbed channel %s up: %s up, %s down, queue %g ms", self.run_id,
+                 format_rate(self.spec.rate_bps), format_rate(self.spec.down_bps),
+                 self.spec.queue_s * 1e3)
+        return self
+
+    @staticmethod
+    def _fresh_id() -> str:
+        taken = set(list_channels())
+        while True:
+            run_id = f"{os.getpid():x}-{next(_counter)}"
+            if run_id not in taken and not _record_path(run_id).exists():
+                return run_id
+
+    def _create(self) -> None:
+        ends = ((self.leader_ns, LEADER_IF, self.leader_addr, self.spec.down_bps),
+                (self.follower_ns, FOLLOWER_IF, self.follower_addr, self.spec.rate_bps))
+        for ns, *_ in ends:
+            _run("ip", "netns", "add", ns)
+        _run("ip", "-n", self.leader_ns, "link", "add", LEADER_IF, "type", "veth",
+             "peer", "name", FOLLOWER_IF, "netns", self.follower_ns)
+        for ns, ifname, addr, rate in ends:
+            # One MTU-sized packet per skb: without this, TCP hands tbf 64 kB GSO
+            # super-packets, which leave as bursts far above the rate. No IPv6 link-local
+            # address: its neighbour discovery would be traffic nobody asked for.
+            _run("ip", "-n", ns, "link", "set", "dev", ifname, "mtu", str(MTU),
+                 "gso_max_size", str(MTU), "gso_max_segs", "1", "addrgenmode", "none")
+            _run("ip", "-n", ns, "addr", "add", f"{addr}/24", "dev", ifname)
+            _run("tc", "-n", ns, "qdisc", "replace", "dev", ifname, "root",
+                 *_tbf_args(rate, self.spec))
+            _run("ip", "-n", ns, "link", "set", "dev", "lo", "up")
+            _run("ip", "-n", ns, "link", "set", "dev", ifname, "up")
+
+    def close(self) -> None:
+        """Remove the channel (veth and qdiscs, namespaces, record); safe to repeat."""
+        if not self._built:
+            return
+        with _locked():
+            _remove_locked(self.run_id)
+        self._built = False
+        log.info("testbed channel %s removed", self.run_id)
+
+    def _require_built(self) -> None:
+        if not self._built:
+            raise RuntimeError("the channel is not built: use `with Channel() as ch` or build()")
+
+    def set_rate(self, rate_bps: int, down_rate_bps: int | None = None) -> None:
+        """Change the rates mid-run (``tc qdisc change``; queued packets stay queued).
+        ``down_rate_bps`` None makes the downlink's rate the uplink's, as in ChannelSpec."""
+        self._require_built()
+        spec = replace(self.spec, rate_bps=rate_bps, down_rate_bps=down_rate_bps)
+        for ns, ifname, old, new in (
+                (self.follower_ns, FOLLOWER_IF, self.spec.rate_bps, spec.rate_bps),
+                (self.leader_ns, LEADER_IF, self.spec.down_bps, spec.down_bps)):
+            if new != old:
+                _run("tc", "-n", ns, "qdisc", "change", "dev", ifname, "root",
+                     *_tbf_args(new, spec))
+        self.spec = spec
+        with _locked():
+            record = _Record.load(self.run_id)
+            if record is not None:
+                replace(record, spec=spec).save()
+        log.info("testbed channel %s: rate now %s up, %s down", self.run_id,
+                 format_rate(spec.rate_bps), format_rate(spec.down_bps))
+
+    def uplink(self) -> LinkCounters:
+        """The followers -> leader direction (the follower side's tbf)."""
+        self._require_built()
+        return _counters(self.follower_ns, FOLLOWER_IF)
+
+    def downlink(self) -> LinkCounters:
+        """The leader -> followers direction (the leader side's tbf)."""
+        self._require_built()
+        return _counters(self.leader_ns, LEADER_IF)
+
+    def describe(self) -> str:
+        """What the channel is and who runs where, for people."""
+        self._require_built()
+        spec = self.spec
+        owner = ("persistent (until `wiswarm testbed down`)" if self.persistent
+                 else "owner unknown" if self.owner_pid is None
+                 else f"owned by pid {self.owner_pid}")
+        return "\n".join((
+            f"testbed channel {self.run_id}, {owner}",
+            f"  uplink (followers -> leader): {format_rate(spec.rate_bps)}, "
+            f"tbf on {FOLLOWER_IF} in {self.follower_ns}",
+            f"  downlink (leader -> followers): {format_rate(spec.down_bps)}, "
+            f"tbf on {LEADER_IF} in {self.leader_ns}",
+            f"  queue: {spec.queue_s * 1e3:g} ms each way (tbf latency), "
+            f"burst {spec.burst_bytes} bytes, MTU {MTU}",
+            f"  leader side: router + leader in {self.leader_ns} at {self.leader_addr}",
+            f"  follower side: followers in {self.follower_ns} at {self.follower_addr}",
+        ))
+
+    @classmethod
+    def attach(cls, run_id: str) -> Channel:
+        """The present channel ``run_id`` (made by any process), its spec read from tc;
+        LookupError if it does not exist. Closing it removes the channel."""
+        leader_ns, follower_ns = _namespaces(run_id)
+        if not (_ns_exists(leader_ns) and _ns_exists(follower_ns)):
+            raise LookupError(f"no testbed channel {run_id!r}")
+        record = _Record.load(run_id)
+        up, down = _tbf(follower_ns, FOLLOWER_IF), _tbf(leader_ns, LEADER_IF)
+        channel = cls(_spec_from_tc(up["options"], down["options"],
+                                    None if record is None else record.spec))
+        if record is not None:
+            channel._place(run_id, record.subnet)
+            channel.persistent, channel.owner_pid = record.persistent, record.owner_pid
+        else:
+            channel.run_id, channel.leader_ns, channel.follower_ns = run_id, *_namespaces(run_id)
+            channel.leader_addr = _address(leader_ns, LEADER_IF)
+            channel.follower_addr = _address(follower_ns, FOLLOWER_IF)
+            channel.owner_pid = None
+        channel._built = True
+        return channel
+
+
+def _address(ns: str, ifname: str) -> str:
+    for link in _json("ip", "-n", ns, "-4", "-j", "addr", "show", "dev", ifname):
+        for info in link.get("addr_info", []):
+            return str(info["local"])
+    raise RuntimeError(f"{ifname} in namespace {ns} has no IPv4 address")
