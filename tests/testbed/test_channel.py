@@ -30,6 +30,7 @@ from wiswarm_zenoh.testbed import (
     unavailable_reason,
 )
 from wiswarm_zenoh.testbed.channel import STATE_DIR
+from wiswarm_zenoh.testbed.netns import entered
 
 T = TypeVar("T")
 WAIT = 30.0
@@ -268,3 +269,18 @@ def test_persistent_channels_are_not_leftovers_and_attach_finds_them() -> None:
     with pytest.raises(LookupError):
         remove_channel(channel.run_id)
 
+
+
+@needs_root
+def test_a_thread_can_enter_one_side_and_come_back() -> None:
+    """``entered``: inside, the leader side's address is local; after, the thread is back
+    in the namespace it came from, where that address is not."""
+    home = os.readlink("/proc/thread-self/ns/net")
+    with Channel() as channel:
+        with entered(channel.leader_ns):
+            assert os.readlink("/proc/thread-self/ns/net") != home
+            with socket.socket() as sock:
+                sock.bind((channel.leader_addr, 0))
+        assert os.readlink("/proc/thread-self/ns/net") == home
+        with socket.socket() as sock, pytest.raises(OSError):
+            sock.bind((channel.leader_addr, 0))

@@ -8,9 +8,10 @@ only then opens its Zenoh session (whose runtime threads start inside the namesp
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -33,12 +34,33 @@ def enter(ns: str) -> None:
         raise OSError(exc.errno, f"network namespace {ns!r} not found: cannot open {path} "
                                  f"({exc.strerror})") from None
     try:
-        if _libc.setns(fd, CLONE_NEWNET) != 0:
-            err = ctypes.get_errno()
-            raise OSError(err, f"cannot enter network namespace {ns!r}: {os.strerror(err)} "
-                               "(entering a namespace needs root, CAP_SYS_ADMIN)")
+        _setns(fd, f"network namespace {ns!r}")
     finally:
         os.close(fd)
+
+
+def _setns(fd: int, what: str) -> None:
+    if _libc.setns(fd, CLONE_NEWNET) != 0:
+        err = ctypes.get_errno()
+        raise OSError(err, f"cannot enter {what}: {os.strerror(err)} "
+                           "(entering a namespace needs root, CAP_SYS_ADMIN)")
+
+
+@contextlib.contextmanager
+def entered(ns: str) -> Iterator[None]:
+    """The calling thread inside ``ns`` for the block, then back in the namespace it was
+    in. Threads started inside stay there: a process that opens its first Zenoh session
+    in the block has Zenoh's runtime in ``ns`` for good (a session opened before it was
+    entered would still talk from where it was)."""
+    home = os.open("/proc/thread-self/ns/net", os.O_RDONLY | os.O_CLOEXEC)
+    try:
+        enter(ns)
+        try:
+            yield
+        finally:
+            _setns(home, "the namespace the thread came from")
+    finally:
+        os.close(home)
 
 
 def run_in(ns: str, target: Callable[..., object], *args: Any) -> None:
