@@ -1,4 +1,4 @@
-"""``wiswarm sim slotted|wifi`` and ``wiswarm experiment sweep``: the simulator's CLI."""
+"""``wiswarm sim slotted|wifi|link`` and ``wiswarm experiment sweep``: the simulator's CLI."""
 
 from __future__ import annotations
 
@@ -7,11 +7,13 @@ import json
 import os
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.sim.link import LinkParams, LinkScenario, run_link
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.report import write_report
 from wiswarm_zenoh.sim.scenario import (
@@ -23,6 +25,7 @@ from wiswarm_zenoh.sim.scenario import (
 )
 from wiswarm_zenoh.sim.slotted import DEFAULT_SLOTS, SlottedSpec, run_slotted
 from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, SweepConfig, run_sweep, summarise
+from wiswarm_zenoh.units import format_rate, parse_rate, parse_seconds
 
 
 def _range(text: str) -> tuple[float, float]:
@@ -34,7 +37,7 @@ def _range(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _numbers(text: str) -> tuple[float, ...]:
+def numbers(text: str) -> tuple[float, ...]:
     """A comma-separated list of numbers (argparse type)."""
     try:
         return tuple(float(part) for part in text.split(","))
@@ -48,6 +51,15 @@ def _build(factory: Any, **kwargs: Any) -> Any:
         return factory(**kwargs)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _parsed(parse: Callable[[str], Any], text: str, flag: str) -> Any:
+    """A flag's value in tc's spelling (``20mbit``, ``200ms``); its ValueError is the
+    user's mistake."""
+    try:
+        return parse(text)
+    except ValueError as exc:
+        raise UsageError(f"{flag}: {exc}") from None
 
 
 def _print_json(obj: object) -> None:
@@ -74,23 +86,40 @@ def _print_wifi(result: WifiResult) -> None:
               f"{f.peak_aoi_s:10.4f} {f.throughput_fps:8.2f}")
     print(f"{'mean':>10} {result.mean('mean_aoi_s'):10.4f} {result.mean('p95_aoi_s'):10.4f} "
           f"{result.mean('peak_aoi_s'):10.4f} {result.mean('throughput_fps'):8.2f}")
+    print("channel: " + ", ".join(f"{k} {v:.6g}" for k, v in result.channel.items()))
 
 
-def _wifi(args: argparse.Namespace) -> int:
+def _workload(args: argparse.Namespace) -> dict[str, Any]:
+    """The flags every channel's run takes (``_add_workload``), as scenario fields."""
     if args.system == "wiswarm" and args.rate is not None:
         raise UsageError("--rate is the push rate of udp and tcp; WiSwarm samples at --sample-rate")
-    scenario = _build(
-        WifiScenario, n=args.n, system=args.system,
-        rate=50.0 if args.rate is None else args.rate, frame_bytes=args.frame_bytes,
-        duration=args.duration, seed=args.seed, reliability=args.reliability,
-        fifo_frames=args.fifo_frames, sample_rate=args.sample_rate, policy=args.policy,
-    )
-    result = run_wifi(scenario)
-    if args.json:
+    return {
+        "n": args.n, "system": args.system, "rate": 50.0 if args.rate is None else args.rate,
+        "frame_bytes": args.frame_bytes, "duration": args.duration, "seed": args.seed,
+        "fifo_frames": args.fifo_frames, "sample_rate": args.sample_rate,
+        "policy": args.policy,
+    }
+
+
+def _show(result: WifiResult, as_json: bool) -> int:
+    if as_json:
         _print_json(result.as_dict())
     else:
         _print_wifi(result)
     return 0
+
+
+def _wifi(args: argparse.Namespace) -> int:
+    scenario = _build(WifiScenario, reliability=args.reliability, **_workload(args))
+    return _show(run_wifi(scenario), args.json)
+
+
+def _link(args: argparse.Namespace) -> int:
+    down = None if args.down_rate is None else _parsed(parse_rate, args.down_rate, "--down-rate")
+    link = _build(LinkParams, rate_bps=_parsed(parse_rate, args.link_rate, "--link-rate"),
+                  down_rate_bps=down, queue_s=_parsed(parse_seconds, args.queue, "--queue"))
+    scenario = _build(LinkScenario, link=link, **_workload(args))
+    return _show(run_link(scenario), args.json)
 
 
 class ProgressBar:
@@ -129,8 +158,23 @@ def _sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_workload(parser: argparse.ArgumentParser) -> None:
+    """The flags of a run over any channel: the system, its followers and cameras."""
+    parser.add_argument("--n", type=int, required=True, help="number of followers (UAVs)")
+    parser.add_argument("--system", default="wiswarm", help=f"one of {', '.join(SYSTEMS)}")
+    parser.add_argument("--rate", type=float, help="udp/tcp frames per second (default 50)")
+    parser.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
+                        help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
+    parser.add_argument("--duration", type=float, default=240.0, help="simulated seconds")
+    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--fifo-frames", type=int, help="bound the baselines' FIFO (unbounded)")
+    parser.add_argument("--sample-rate", type=float, default=100.0, help="WiSwarm cameras, fps")
+    parser.add_argument("--policy", default="whittle", help="WiSwarm's scheduling policy")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+
+
 def register(subparsers: Any) -> None:
-    """Add ``sim`` (slotted, wifi) and ``experiment`` (sweep)."""
+    """Add ``sim`` (slotted, wifi, link) and ``experiment`` (sweep)."""
     sim = subparsers.add_parser("sim", help="simulate polling over a shared channel")
     kinds = sim.add_subparsers(dest="channel", metavar="CHANNEL", parser_class=OneLineParser)
     kinds.required = True
@@ -149,29 +193,30 @@ def register(subparsers: Any) -> None:
     slotted.set_defaults(func=_slotted)
 
     wifi = kinds.add_parser("wifi", help="an 802.11 shared medium with CSMA/CA")
-    wifi.add_argument("--n", type=int, required=True, help="number of followers (UAVs)")
-    wifi.add_argument("--system", default="wiswarm", help=f"one of {', '.join(SYSTEMS)}")
-    wifi.add_argument("--rate", type=float, help="udp/tcp frames per second (default 50)")
-    wifi.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
-                      help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
-    wifi.add_argument("--duration", type=float, default=240.0, help="simulated seconds")
-    wifi.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    _add_workload(wifi)
     lo, hi = DEFAULT_RELIABILITY
     wifi.add_argument("--reliability", type=_range, default=DEFAULT_RELIABILITY,
                       metavar="LO:HI", help=f"per-attempt MAC success, U[LO, HI] ({lo}:{hi})")
-    wifi.add_argument("--fifo-frames", type=int, help="bound the baselines' FIFO (unbounded)")
-    wifi.add_argument("--sample-rate", type=float, default=100.0, help="WiSwarm cameras, fps")
-    wifi.add_argument("--policy", default="whittle", help="WiSwarm's scheduling policy")
-    wifi.add_argument("--json", action="store_true", help="print one JSON object")
     wifi.set_defaults(func=_wifi)
+
+    defaults = LinkParams()
+    link = kinds.add_parser("link", help="the testbed's link: a tc tbf each way over a veth")
+    _add_workload(link)
+    link.add_argument("--link-rate", default=format_rate(defaults.rate_bps), metavar="RATE",
+                      help="the uplink's (and by default the downlink's) tbf rate "
+                           f"(default {format_rate(defaults.rate_bps)})")
+    link.add_argument("--down-rate", metavar="RATE", help="the downlink's rate, if different")
+    link.add_argument("--queue", default=f"{defaults.queue_s * 1e3:g}ms", metavar="TIME",
+                      help=f"tbf latency: the queue's limit (default {defaults.queue_s * 1e3:g}ms)")
+    link.set_defaults(func=_link)
 
     experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
     studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
     studies.required = True
     sweep = studies.add_parser("sweep", help="the stationary study: AoI against N and rate")
-    sweep.add_argument("--ns", type=_numbers, default=tuple(float(n) for n in PAPER_NS),
+    sweep.add_argument("--ns", type=numbers, default=tuple(float(n) for n in PAPER_NS),
                        help="numbers of UAVs (default 2,4,...,14)")
-    sweep.add_argument("--rates", type=_numbers, default=PAPER_RATES,
+    sweep.add_argument("--rates", type=numbers, default=PAPER_RATES,
                        help="the baselines' rate grid, fps (default the paper's)")
     sweep.add_argument("--fixed-rate", type=float, default=50.0,
                        help="the fixed-rate baselines' fps (default 50)")

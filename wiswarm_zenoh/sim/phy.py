@@ -27,6 +27,18 @@ ACK_FRAME = 14
 SERVICE_TAIL_BITS = 16 + 6
 
 
+def udp_fragments(payload_bytes: int, mtu: int) -> list[int]:
+    """IP packet sizes of one UDP datagram after IP fragmentation at ``mtu``: on any link."""
+    per_fragment = (mtu - IP_HEADER) // 8 * 8
+    remaining = payload_bytes + UDP_HEADER
+    sizes = []
+    while remaining > per_fragment:
+        sizes.append(per_fragment + IP_HEADER)
+        remaining -= per_fragment
+    sizes.append(remaining + IP_HEADER)
+    return sizes
+
+
 @dataclass(frozen=True)
 class WifiParams:
     """Physical and MAC parameters of the shared channel (seconds, bytes)."""
@@ -110,14 +122,7 @@ class Airtime:
 
     def udp_packets(self, payload_bytes: int) -> list[int]:
         """IP packet sizes of one UDP datagram after IP fragmentation at the MTU."""
-        per_fragment = (self.p.mtu - IP_HEADER) // 8 * 8
-        remaining = payload_bytes + UDP_HEADER
-        sizes = []
-        while remaining > per_fragment:
-            sizes.append(per_fragment + IP_HEADER)
-            remaining -= per_fragment
-        sizes.append(remaining + IP_HEADER)
-        return sizes
+        return udp_fragments(payload_bytes, self.p.mtu)
 
     @property
     def tcp_mss(self) -> int:

@@ -1,15 +1,21 @@
-"""One run over the ``wifi`` channel: WiSwarm or a push baseline, N followers, one seed."""
+"""One run over the ``wifi`` channel: WiSwarm or a push baseline, N followers, one seed.
+
+``Workload``, ``start_system`` and ``result_of`` are what a run is on any channel model
+(the ``link`` model shares them): the system, its followers' cameras, and its metrics.
+"""
 
 from __future__ import annotations
 
 import math
 import random
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.sim.channel import Channel, PacketCosts
 from wiswarm_zenoh.sim.engine import Engine
-from wiswarm_zenoh.sim.medium import Medium
+from wiswarm_zenoh.sim.medium import Medium, Station
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.sim.phy import Airtime, WifiParams
 from wiswarm_zenoh.sim.slotted import check_range
@@ -29,8 +35,9 @@ DEFAULT_HOST_DELAY = 0.5e-3
 
 
 @dataclass(frozen=True)
-class WifiScenario:
-    """Everything that defines one run; validated on construction (ValueError)."""
+class Workload:
+    """What runs over a channel, whatever the channel: the system, its N followers and
+    their cameras; validated on construction (ValueError names the field)."""
 
     n: int
     system: str = "wiswarm"
@@ -38,12 +45,10 @@ class WifiScenario:
     frame_bytes: int = PAPER_FRAME_BYTES
     duration: float = 240.0
     seed: int = 0
-    reliability: tuple[float, float] = DEFAULT_RELIABILITY
     fifo_frames: int | None = None  # the baselines' application FIFO (None: unbounded)
     sample_rate: float = 100.0  # WiSwarm cameras
     host_delay: float = DEFAULT_HOST_DELAY
     policy: str = "whittle"
-    params: WifiParams = field(default_factory=WifiParams)
     follower_config: FollowerConfig = field(default_factory=FollowerConfig)
 
     def __post_init__(self) -> None:
@@ -63,47 +68,60 @@ class WifiScenario:
                 f"frame_bytes must be in {STAMP.size}..{limit} (max_update_bytes), "
                 f"got {self.frame_bytes}"
             )
-        check_range("reliability", *self.reliability, 0.0, 1.0)
         if self.fifo_frames is not None and self.fifo_frames < 1:
             raise ValueError(f"fifo_frames must be >= 1, got {self.fifo_frames}")
         LeaderConfig(policy=self.policy)
 
 
-def run_wifi(s: WifiScenario) -> WifiResult:
-    """Simulate ``s.duration`` seconds and measure every follower's AoI on ground truth."""
-    rng = random.Random(s.seed)
-    p = [rng.uniform(*s.reliability) for _ in range(s.n)]
-    engine = Engine(rng.getrandbits(64))
-    medium = Medium(engine, s.params)
-    air = Airtime(s.params)
-    leader = medium.station("leader")
-    stations = [medium.station(f"uav{i}") for i in range(s.n)]
+@dataclass(frozen=True)
+class WifiScenario(Workload):
+    """A run over the 802.11 medium: the workload, each link's reliability, the PHY."""
+
+    reliability: tuple[float, float] = DEFAULT_RELIABILITY
+    params: WifiParams = field(default_factory=WifiParams)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_range("reliability", *self.reliability, 0.0, 1.0)
+
+
+def start_system(
+    s: Workload, engine: Engine, channel: Channel, costs: PacketCosts, leader: Station,
+    stations: Sequence[Station], p: Sequence[float], rng: random.Random,
+    udp: type[UdpPush] = UdpPush,
+) -> tuple[list[AoITracker], WiswarmNetwork | None]:
+    """Start ``s.system`` over the channel (``udp``: the UDP sender's model): the
+    leader's AoI tracker of every follower, and the WiSwarm network (None for a push
+    baseline, whose cameras' phases ``rng`` draws)."""
     sinks = [AoITracker(0.0) for _ in range(s.n)]
-    net: WiswarmNetwork | None = None
     if s.system == "wiswarm":
         net = WiswarmNetwork(
-            engine, medium, air, leader, stations, p, sinks, s.frame_bytes, s.sample_rate,
+            engine, channel, costs, leader, stations, p, sinks, s.frame_bytes, s.sample_rate,
             s.host_delay, LeaderConfig(policy=s.policy), s.follower_config,
         )
         net.start()
-    for i, station in enumerate(stations if net is None else []):
+        return sinks, net
+    for i, station in enumerate(stations):
         fifo = PeriodicFifo(s.rate, rng.random() / s.rate, s.fifo_frames)
         if s.system == "udp":
-            UdpPush(engine, medium, station, fifo, air, s.frame_bytes, p[i], sinks[i]).start()
+            udp(engine, channel, station, fifo, costs, s.frame_bytes, p[i], sinks[i]).start()
         else:
             TcpFlow(
-                engine, medium, station, leader, fifo, air, s.frame_bytes, p[i], sinks[i]
+                engine, channel, station, leader, fifo, costs, s.frame_bytes, p[i], sinks[i]
             ).start()
-    engine.run(s.duration)
+    return sinks, None
+
+
+def result_of(
+    s: Workload, sinks: Sequence[AoITracker], net: WiswarmNetwork | None,
+    channel: dict[str, float],
+) -> WifiResult:
+    """The run's metrics at ``s.duration``: the channel's counters, and WiSwarm's polls
+    and timeouts."""
     followers = [
         FollowerMetrics.from_tracker(f"uav{i}", sink, s.duration, s.frame_bytes)
         for i, sink in enumerate(sinks)
     ]
-    channel = {
-        "utilisation": medium.busy_time / s.duration,
-        "transmissions": float(medium.transmissions),
-        "collision_share": medium.collisions / max(medium.transmissions, 1),
-    }
     if net is not None:
         channel["polls"] = float(net.leader.polls)
         channel["timeouts"] = float(sum(net.leader.stats(f, s.duration).timeouts
@@ -113,3 +131,20 @@ def run_wifi(s: WifiScenario) -> WifiResult:
         frame_bytes=s.frame_bytes, duration=s.duration, seed=s.seed, followers=followers,
         channel=channel,
     )
+
+
+def run_wifi(s: WifiScenario) -> WifiResult:
+    """Simulate ``s.duration`` seconds and measure every follower's AoI on ground truth."""
+    rng = random.Random(s.seed)
+    p = [rng.uniform(*s.reliability) for _ in range(s.n)]
+    engine = Engine(rng.getrandbits(64))
+    medium = Medium(engine, s.params)
+    leader = medium.station("leader")
+    stations = [medium.station(f"uav{i}") for i in range(s.n)]
+    sinks, net = start_system(s, engine, medium, Airtime(s.params), leader, stations, p, rng)
+    engine.run(s.duration)
+    return result_of(s, sinks, net, {
+        "utilisation": medium.busy_time / s.duration,
+        "transmissions": float(medium.transmissions),
+        "collision_share": medium.collisions / max(medium.transmissions, 1),
+    })

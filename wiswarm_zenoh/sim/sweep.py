@@ -95,7 +95,7 @@ class Point:
     std: dict[str, float]
 
 
-def _point(label: str, group: Sequence[WifiResult]) -> Point:
+def point_of(label: str, group: Sequence[WifiResult]) -> Point:
     values = {m: [r.mean(m) for r in group] for m in METRICS}
     return Point(
         label=label, n=group[0].n, rate=group[0].rate,
@@ -114,7 +114,7 @@ def summarise(config: SweepConfig, results: Sequence[WifiResult]) -> list[Point]
         groups.setdefault((r.system, r.rate, r.n), []).append(r)
     points = []
     for (system, rate, _), group in sorted(groups.items(), key=lambda kv: str(kv[0])):
-        points.append(_point(system if rate is None else f"{system}@{rate:g}", group))
+        points.append(point_of(system if rate is None else f"{system}@{rate:g}", group))
     for n in config.ns:
         for system in BASELINES:
             candidates = [p for p in points if p.n == n and p.label.startswith(f"{system}@")

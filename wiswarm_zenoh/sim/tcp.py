@@ -15,10 +15,11 @@ from collections import deque
 from functools import partial
 from typing import cast
 
+from wiswarm_zenoh.sim.channel import Channel, PacketCosts
 from wiswarm_zenoh.sim.engine import Engine
-from wiswarm_zenoh.sim.medium import Medium, Mpdu, Station
+from wiswarm_zenoh.sim.medium import Mpdu, Station
 from wiswarm_zenoh.sim.metrics import FrameSink
-from wiswarm_zenoh.sim.phy import IP_HEADER, TCP_HEADER, Airtime
+from wiswarm_zenoh.sim.phy import IP_HEADER, TCP_HEADER
 from wiswarm_zenoh.sim.push import PushFlow
 from wiswarm_zenoh.sim.source import PeriodicFifo
 
@@ -35,11 +36,11 @@ class TcpFlow(PushFlow):
     def __init__(
         self,
         engine: Engine,
-        medium: Medium,
+        medium: Channel,
         station: Station,
         leader: Station,
         fifo: PeriodicFifo,
-        airtime: Airtime,
+        airtime: PacketCosts,
         frame_bytes: int,
         p_success: float,
         sink: FrameSink,

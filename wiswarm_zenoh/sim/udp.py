@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from typing import cast
 
+from wiswarm_zenoh.sim.channel import Channel, PacketCosts
 from wiswarm_zenoh.sim.engine import Engine
-from wiswarm_zenoh.sim.medium import Medium, Mpdu, Station
+from wiswarm_zenoh.sim.medium import Mpdu, Station
 from wiswarm_zenoh.sim.metrics import FrameSink
-from wiswarm_zenoh.sim.phy import Airtime
 from wiswarm_zenoh.sim.push import PushFlow
 from wiswarm_zenoh.sim.source import PeriodicFifo
 
@@ -24,10 +24,10 @@ class UdpPush(PushFlow):
     def __init__(
         self,
         engine: Engine,
-        medium: Medium,
+        medium: Channel,
         station: Station,
         fifo: PeriodicFifo,
-        airtime: Airtime,
+        airtime: PacketCosts,
         frame_bytes: int,
         p_success: float,
         sink: FrameSink,

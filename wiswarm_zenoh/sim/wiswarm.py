@@ -23,10 +23,10 @@ from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.events import Delivered
 from wiswarm_zenoh.core.follower import Follower
 from wiswarm_zenoh.core.leader import Leader, PollRequest
+from wiswarm_zenoh.sim.channel import Channel, PacketCosts
 from wiswarm_zenoh.sim.engine import Engine
-from wiswarm_zenoh.sim.medium import Medium, Mpdu, Station
+from wiswarm_zenoh.sim.medium import Mpdu, Station
 from wiswarm_zenoh.sim.metrics import FrameSink
-from wiswarm_zenoh.sim.phy import Airtime
 
 STAMP = struct.Struct("<d")
 
@@ -41,8 +41,8 @@ class WiswarmNetwork:
     def __init__(
         self,
         engine: Engine,
-        medium: Medium,
-        airtime: Airtime,
+        medium: Channel,
+        airtime: PacketCosts,
         leader_station: Station,
         stations: Sequence[Station],
         p_success: Sequence[float],
