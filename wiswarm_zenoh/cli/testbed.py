@@ -37,7 +37,7 @@ def parse_size(text: str) -> int:
     return int(found.group(1)) * _SIZE_UNITS[unit]
 
 
-def _type(parse: Any) -> Any:
+def argument_type(parse: Any) -> Any:
     """An argparse type from a parser raising ValueError: its message is the one line."""
     def convert(text: str) -> Any:
         try:
@@ -47,7 +47,7 @@ def _type(parse: Any) -> Any:
     return convert
 
 
-def _require() -> None:
+def require_testbed() -> None:
     """One line and exit 2 where namespaces cannot be built."""
     try:
         check_available()
@@ -70,14 +70,22 @@ def _how_to_run(channel: Channel) -> str:
     ))
 
 
-def _up(args: argparse.Namespace) -> int:
+def channel_spec(args: argparse.Namespace) -> ChannelSpec:
+    """The channel that ``add_channel_arguments``' flags describe (UsageError if bad)."""
     try:
-        spec = ChannelSpec(rate_bps=args.rate, queue_s=args.queue,
+        return ChannelSpec(rate_bps=args.rate, queue_s=args.queue,
                            down_rate_bps=args.down_rate, burst_bytes=args.burst)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _up(args: argparse.Namespace) -> int:
+    spec = channel_spec(args)
+    try:
         channel = Channel(spec, name=args.name)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    _require()
+    require_testbed()
     try:
         channel.build(persistent=True)
     except ValueError as exc:  # the name is taken
@@ -89,7 +97,7 @@ def _up(args: argparse.Namespace) -> int:
 
 
 def _down(args: argparse.Namespace) -> int:
-    _require()
+    require_testbed()
     if args.run_id is not None:
         try:
             remove_channel(args.run_id)
@@ -118,7 +126,7 @@ def _counters(label: str, rate_bps: int, counters: LinkCounters) -> str:
 
 
 def _status(args: argparse.Namespace) -> int:
-    _require()
+    require_testbed()
     shown = 0
     for run_id in list_channels():
         try:
@@ -148,7 +156,7 @@ def _only_channel() -> str:
 
 
 def _set(args: argparse.Namespace) -> int:
-    _require()
+    require_testbed()
     run_id = args.run_id or _only_channel()
     try:
         channel = Channel.attach(run_id)
@@ -167,14 +175,26 @@ def _set(args: argparse.Namespace) -> int:
 
 
 def _add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
-    parser.add_argument("--rate", type=_type(parse_rate), required=rate_required,
+    parser.add_argument("--rate", type=argument_type(parse_rate), required=rate_required,
                         default=None if rate_required else 20_000_000, metavar="RATE",
                         help="the shared uplink's rate, followers -> leader, in tc's "
                              "spelling (20mbit, 500kbit)" +
                              ("" if rate_required else "; default 20mbit"))
-    parser.add_argument("--down-rate", type=_type(parse_rate), metavar="RATE",
+    parser.add_argument("--down-rate", type=argument_type(parse_rate), metavar="RATE",
                         help="the downlink's rate, leader -> followers (polls and control); "
                              "default: as --rate")
+
+
+def add_channel_arguments(parser: argparse.ArgumentParser) -> None:
+    """The channel's shape: --rate, --down-rate, --queue, --burst (``channel_spec``)."""
+    _add_rates(parser, rate_required=False)
+    parser.add_argument("--queue", type=argument_type(parse_seconds), default=0.2,
+                        metavar="TIME", help="how long a packet may wait in each direction's "
+                        "queue before tail drop (tbf latency), e.g. 200ms; default 200ms")
+    parser.add_argument("--burst", type=argument_type(parse_size), default=32 * 1024,
+                        metavar="SIZE", help="the token bucket's size: bytes sent back to back "
+                        "at line speed after a pause, at least one MTU packet, e.g. 32kb; "
+                        "default 32kb")
 
 
 def register(subparsers: Any) -> None:
@@ -191,13 +211,7 @@ def register(subparsers: Any) -> None:
         description="Build a persistent channel: a leader-side and a follower-side network "
                     "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
                     "Prints what it built, how to start nodes in it, and its run id.")
-    _add_rates(up, rate_required=False)
-    up.add_argument("--queue", type=_type(parse_seconds), default=0.2, metavar="TIME",
-                    help="how long a packet may wait in each direction's queue before tail "
-                         "drop (tbf latency), e.g. 200ms; default 200ms")
-    up.add_argument("--burst", type=_type(parse_size), default=32 * 1024, metavar="SIZE",
-                    help="the token bucket's size: bytes sent back to back at line speed "
-                         "after a pause, at least one MTU packet, e.g. 32kb; default 32kb")
+    add_channel_arguments(up)
     up.add_argument("--name", help="the run id to use (default: made up, printed)")
     up.set_defaults(func=_up)
 
