@@ -32,10 +32,10 @@ import zenoh
 from apps.tracking.frames import encode_frame
 from apps.tracking.geometry import CameraModel, Pose
 from apps.tracking.metrics import UavMetrics
-from apps.tracking.push import PushSender
 from apps.tracking.render import Renderer
 from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
 from apps.tracking.world import World, WorldConfig
+from wiswarm_zenoh.baselines import PushSender
 from wiswarm_zenoh.core import FollowerConfig, Waypoint
 from wiswarm_zenoh.transport import FollowerNode, SessionSpec, SwarmKeys
 from wiswarm_zenoh.transport.badinput import BadInputLog
@@ -205,7 +205,7 @@ class UavRuntime:
             self._node = node
             self._bad_control.append(node.bad_input)
             return node.offer
-        sender = PushSender(session, options.swarm, options.uav, options.push_fifo)
+        sender = PushSender(session, options.swarm, options.uav, capacity=options.push_fifo)
         self._stack.callback(sender.close)
         listener = ControlListener(session, options.swarm, options.uav, self._on_control)
         self._stack.callback(listener.close)

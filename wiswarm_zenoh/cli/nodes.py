@@ -1,5 +1,9 @@
 """``wiswarm router | leader | follower | swarm-demo``: the middleware's processes.
 
+``--system push|udp|tcp`` turns a follower into a baseline a Zenoh user would pick
+instead of polling (frames pushed at a fixed rate) and a leader into its receiver,
+which publishes the same stats as the polling leader.
+
 Zenoh flags follow zenoh-python's examples (-m/-e/-l/-c/--cfg/--no-multicast-scouting).
 Without -e or -c, leader and follower connect to a router on this machine
 (``wiswarm router``, tcp/127.0.0.1:7447) as peers.
@@ -12,6 +16,16 @@ import sys
 import threading
 from typing import Any
 
+from wiswarm_zenoh.baselines import (
+    BaselineFollowerOptions,
+    Receiver,
+    ReceiverOptions,
+    run_baseline_followers,
+    run_receiver,
+)
+from wiswarm_zenoh.baselines.runners import DEFAULT_BIND
+from wiswarm_zenoh.baselines.senders import CONGESTION, DEFAULT_CAPACITY, parse_address
+from wiswarm_zenoh.baselines.stamp import HEADER_BYTES, MAX_UDP_PAYLOAD
 from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
@@ -35,6 +49,8 @@ from wiswarm_zenoh.transport.zenoh_config import (
 )
 
 DEFAULT_SWARM = "swarm"
+SYSTEMS = ("wiswarm", "push", "udp", "tcp")
+BASELINE_RATE = 50.0  # the paper's fixed-rate baselines
 
 
 def _positive(kind: type[float] | type[int], most: float = float("inf")) -> Any:
@@ -93,8 +109,32 @@ def _router(args: argparse.Namespace) -> int:
     return 0
 
 
+def _receiver(args: argparse.Namespace) -> int:
+    """``wiswarm leader --system push|udp|tcp``: a baseline's receiver."""
+    options = ReceiverOptions(args.swarm, args.system, args.bind, args.record, args.duration)
+    if args.system != "push":
+        _checked(parse_address, args.bind)
+    spec = _spec(args, "peer")
+    table, title = LiveTable(), f"wiswarm leader: swarm {args.swarm!r}, {args.system} receiver"
+
+    def show(receiver: Receiver) -> None:
+        rates = {str(r["follower"]): float(r["deliveries_per_s"]) for r in receiver.latest}
+        table.show(format_table(receiver.latest, rates, f"{title}, deliveries/s in the "
+                                f"polls/s column, up {receiver.summary.uptime_s:.0f} s"))
+
+    try:
+        receiver = run_receiver(spec, options, threading.Event(), _Announce(
+            f"{title}: waiting for frames (Ctrl-C to stop)"), show)
+    except OSError as exc:  # the address is taken or not ours
+        raise UsageError(f"cannot listen on {args.bind}: {exc.strerror or exc}") from None
+    print("\n".join(["", "summary", *format_table(receiver.latest, {}, title)]))
+    return 0
+
+
 def _leader(args: argparse.Namespace) -> int:
     _checked(SwarmKeys, args.swarm)
+    if args.system != "wiswarm":
+        return _receiver(args)
     config = _checked(LeaderConfig, policy=args.policy, timeout=args.timeout,
                       window=args.window, alpha=args.alpha)
     if args.control_period < 0:
@@ -117,9 +157,43 @@ def _leader(args: argparse.Namespace) -> int:
     return 0
 
 
+def _baseline_follower(args: argparse.Namespace) -> int:
+    """``wiswarm follower --system push|udp|tcp``: frames pushed at ``--rate``."""
+    rate = args.rate or BASELINE_RATE
+    limit = MAX_UDP_PAYLOAD - HEADER_BYTES - len(args.id.encode())
+    if args.system == "udp" and args.frame_bytes > limit:
+        raise UsageError(f"--frame-bytes {args.frame_bytes} does not fit one UDP datagram "
+                         f"(at most {limit} with this id)")
+    if args.to is not None:
+        _checked(parse_address, args.to)
+    options = _checked(BaselineFollowerOptions, args.swarm, (args.id,), args.system, rate,
+                       args.congestion or "block", args.frame_bytes, args.to,
+                       args.capacity or DEFAULT_CAPACITY, args.duration)
+    spec = _spec(args, "peer")
+    how = f"{args.congestion or 'block'} put" if args.system == "push" else f"to {args.to}"
+    run_baseline_followers(spec, options, threading.Event(), _Announce(
+        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {rate:g} Hz, "
+        f"{args.system} ({how}) (Ctrl-C to stop)"))
+    return 0
+
+
 def _follower(args: argparse.Namespace) -> int:
     _checked(check_follower, args.id)
     _checked(SwarmKeys, args.swarm)
+    if args.system == "wiswarm":
+        for flag, value in (("--congestion", args.congestion), ("--to", args.to)):
+            if value is not None:
+                raise UsageError(f"{flag} is for --system push/udp/tcp, not wiswarm")
+    else:
+        if args.congestion is not None and args.system != "push":
+            raise UsageError(f"--congestion is for --system push, not {args.system}")
+        if args.system != "push" and args.to is None:
+            raise UsageError(f"--system {args.system} needs --to HOST:PORT (the receiver, "
+                             "wiswarm leader --system " + args.system + ")")
+        _check_frame_bytes(args.frame_bytes, FollowerConfig())
+        return _baseline_follower(args)
+    args.rate = args.rate or FRAME_RATE
+    args.capacity = args.capacity or 1
     config = _checked(FollowerConfig, queue=args.queue, capacity=args.capacity,
                       rate_hz=args.rate if args.queue == "fifo" else None,
                       fragment_size=args.fragment_size)
@@ -152,8 +226,14 @@ def register(subparsers: Any) -> None:
     _add_common(router, MODES)
     router.set_defaults(func=_router)
 
-    leader = subparsers.add_parser("leader", help="poll the followers of a swarm")
+    leader = subparsers.add_parser("leader", help="poll the followers of a swarm (or receive "
+                                   "a push baseline's frames)")
     _add_swarm(leader)
+    leader.add_argument("--system", choices=SYSTEMS, default="wiswarm",
+                        help="wiswarm: poll (default); push|udp|tcp: receive a baseline's "
+                        "frames and publish the same stats")
+    leader.add_argument("--bind", default=DEFAULT_BIND, metavar="HOST:PORT",
+                        help=f"udp/tcp receivers listen here (default {DEFAULT_BIND})")
     leader.add_argument("--policy", default="whittle", choices=sorted(POLICIES))
     leader.add_argument("--timeout", type=_positive(float), default=0.3,
                         help="seconds to wait for a reply (default 0.3)")
@@ -170,10 +250,21 @@ def register(subparsers: Any) -> None:
     follower = subparsers.add_parser("follower", help="a follower sending synthetic frames")
     _add_swarm(follower)
     follower.add_argument("--id", required=True, help="this follower's id (a key chunk)")
+    follower.add_argument("--system", choices=SYSTEMS, default="wiswarm",
+                          help="wiswarm: answer polls (default); push: put every frame on "
+                          "wiswarm/<swarm>/<id>/push; udp/tcp: send every frame to --to")
+    follower.add_argument("--congestion", choices=sorted(CONGESTION),
+                          help="push: block (reliable, the put waits; default) or drop "
+                          "(Zenoh's default for put)")
+    follower.add_argument("--to", metavar="HOST:PORT",
+                          help="udp/tcp: the receiver (wiswarm leader --system udp|tcp)")
     follower.add_argument("--queue", choices=["lifo", "fifo"], default="lifo")
-    follower.add_argument("--capacity", type=_positive(int), default=1, help="queue capacity")
-    follower.add_argument("--rate", type=_positive(float, MAX_RATE_HZ), default=FRAME_RATE,
-                          help="frames per second (and the FIFO's rate control)")
+    follower.add_argument("--capacity", type=_positive(int),
+                          help=f"queue capacity (default 1; push/udp/tcp: a FIFO of "
+                          f"{DEFAULT_CAPACITY})")
+    follower.add_argument("--rate", type=_positive(float, MAX_RATE_HZ),
+                          help=f"frames per second (default {FRAME_RATE:g}; push/udp/tcp "
+                          f"{BASELINE_RATE:g}) and the FIFO's rate control")
     follower.add_argument("--fragment-size", type=_positive(int), default=65536,
                           help="bytes per reply (default 65536)")
     follower.add_argument("--frame-bytes", type=_positive(int), default=FRAME_BYTES,
