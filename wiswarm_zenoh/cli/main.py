@@ -20,6 +20,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "wiswarm_zenoh.cli.nodes",
     "wiswarm_zenoh.cli.sim",
     "wiswarm_zenoh.cli.testbed",
+    "wiswarm_zenoh.cli.experiment",
     "apps.tracking.cli",
 )
 

@@ -174,7 +174,8 @@ def _add_workload(parser: argparse.ArgumentParser) -> None:
 
 
 def register(subparsers: Any) -> None:
-    """Add ``sim`` (slotted, wifi, link) and ``experiment`` (sweep)."""
+    """Add ``sim`` (slotted, wifi, link); ``experiment sweep`` is added by
+    ``wiswarm_zenoh.cli.experiment`` through ``register_sweep``."""
     sim = subparsers.add_parser("sim", help="simulate polling over a shared channel")
     kinds = sim.add_subparsers(dest="channel", metavar="CHANNEL", parser_class=OneLineParser)
     kinds.required = True
@@ -210,9 +211,9 @@ def register(subparsers: Any) -> None:
                       help=f"tbf latency: the queue's limit (default {defaults.queue_s * 1e3:g}ms)")
     link.set_defaults(func=_link)
 
-    experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
-    studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
-    studies.required = True
+
+def register_sweep(studies: Any) -> None:
+    """``experiment sweep``: the stationary study in the simulator."""
     sweep = studies.add_parser("sweep", help="the stationary study: AoI against N and rate")
     sweep.add_argument("--ns", type=numbers, default=tuple(float(n) for n in PAPER_NS),
                        help="numbers of UAVs (default 2,4,...,14)")

@@ -190,8 +190,11 @@ def _locked() -> Iterator[None]:
 
 
 def _run(*argv: str) -> str:
-    """Run ``ip``/``tc``; RuntimeError with its stderr if it fails."""
-    done = subprocess.run(argv, capture_output=True, text=True, check=False)
+    """Run ``ip``/``tc``; RuntimeError with its stderr if it fails. In a session of its
+    own: a Ctrl-C at the terminal reaches the whole process group, and must not kill the
+    commands that remove a channel while a run winds down."""
+    done = subprocess.run(argv, capture_output=True, text=True, check=False,
+                          start_new_session=True)
     if done.returncode != 0:
         raise RuntimeError(f"`{' '.join(argv)}` failed (exit {done.returncode}): "
                            f"{done.stderr.strip() or 'no message'}")

@@ -1,0 +1,107 @@
+"""Runs over a real emulated channel: frames cross the shaped link, both WiSwarm and push
+deliver, faults are survived and reported, an interrupted study keeps what it measured
+and leaves no channel behind."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from wiswarm_zenoh.testbed import Channel, list_channels
+from wiswarm_zenoh.testbed.run import RunOutcome, RunSpec, measure
+from wiswarm_zenoh.transport.frames import FRAME_BYTES
+
+pytestmark = pytest.mark.testbed
+RATE_MBPS = 20.0
+
+
+def _frames_crossed(outcome: RunOutcome) -> None:
+    """Every follower delivered, and the uplink's qdisc carried at least the delivered
+    frames' bytes (with shared memory on they would never have reached it) at no more
+    than its rate."""
+    result = outcome.result
+    assert all(f.deliveries >= 5 for f in result.followers), result.followers
+    delivered = sum(f.deliveries for f in result.followers) * FRAME_BYTES
+    crossed = result.channel["uplink_mbps"] * 1e6 / 8 * result.duration
+    assert crossed >= delivered
+    assert result.channel["uplink_mbps"] <= RATE_MBPS * 1.05
+
+
+def test_wiswarm_frames_cross_the_shaped_link_and_stay_fresh(tmp_path: Path) -> None:
+    with Channel() as channel:
+        outcome = measure(channel, RunSpec("wiswarm", 2, duration=3.0, warmup=1.5), tmp_path)
+    _frames_crossed(outcome)
+    # two followers share a 21 ms frame time: the round-robin floor is about 42 ms
+    assert outcome.result.mean("mean_aoi_s") < 0.1
+    assert outcome.complete and not outcome.events
+
+
+def test_push_frames_cross_the_shaped_link(tmp_path: Path) -> None:
+    with Channel() as channel:
+        outcome = measure(channel, RunSpec("push-block", 2, rate=10.0, duration=3.0,
+                                           warmup=1.5), tmp_path)
+    _frames_crossed(outcome)
+
+
+def _kill_child_later(name: str, after: float) -> threading.Thread:
+    def kill() -> None:
+        deadline = time.monotonic() + 30.0
+        while time.monotonic() < deadline:
+            found = [p for p in multiprocessing.active_children() if p.name == name]
+            if found and found[0].pid is not None:
+                time.sleep(after)  # into the run: the window must show the gap
+                os.kill(found[0].pid, signal.SIGKILL)
+                return
+            time.sleep(0.05)
+    thread = threading.Thread(target=kill, daemon=True)
+    thread.start()
+    return thread
+
+
+def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
+        tmp_path: Path) -> None:
+    with Channel() as channel:
+        killer = _kill_child_later("followers", after=2.0)
+        timer = threading.Timer(4.0, channel.set_rate, args=(5_000_000,))
+        timer.start()
+        outcome = measure(channel, RunSpec("wiswarm", 2, duration=6.0, warmup=1.0), tmp_path)
+        killer.join()
+        timer.join()
+    events = " ".join(outcome.events)
+    assert "followers process ended" in events
+    assert "20mbit/20mbit -> 5mbit/5mbit" in events
+    assert all(f.deliveries >= 5 for f in outcome.result.followers)  # the run went on
+
+
+def _wait_for_rows(path: Path, rows: int, timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not (path.exists() and len(path.read_text().splitlines()) > rows):
+        assert time.monotonic() < deadline, f"{path} did not get {rows} rows"
+        time.sleep(0.1)
+
+
+def test_an_interrupted_study_writes_what_it_measured_and_removes_its_channels(
+        tmp_path: Path) -> None:
+    before = set(list_channels())
+    out = tmp_path / "study"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "wiswarm_zenoh.cli.main", "experiment", "testbed", "--ns", "2",
+         "--baselines", "udp", "--duration", "30", "--warmup", "1", "--parallel", "1",
+         "--out", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    _wait_for_rows(out / "records" / "wiswarm-n2-b0.csv", rows=100)  # past the warm-up
+    os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Interrupted" in (out / "gains.md").read_text()
+    rows = (out / "runs.csv").read_text().splitlines()
+    assert len(rows) >= 2 and rows[1].startswith("wiswarm,2,")
+    assert set(list_channels()) == before

@@ -1,0 +1,104 @@
+"""``wiswarm experiment sweep|testbed|...``: the paper's experiments.
+
+The group gathers studies from several modules (the simulator's sweep, the testbed's
+study here, the tracking application's flights), each adding its parser through a
+``register_*(studies)`` function named in STUDY_REGISTRARS.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from wiswarm_zenoh.cli.sim import ProgressBar, numbers
+from wiswarm_zenoh.cli.testbed import add_channel_arguments, channel_spec, require_testbed
+from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES
+from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
+from wiswarm_zenoh.testbed.study_report import write_study
+from wiswarm_zenoh.transport.frames import FRAME_BYTES
+from wiswarm_zenoh.units import format_rate
+
+# "module:function" adding one study to the ``experiment`` group's subparsers.
+STUDY_REGISTRARS: tuple[str, ...] = (
+    "wiswarm_zenoh.cli.sim:register_sweep",
+    "wiswarm_zenoh.cli.experiment:register_testbed",
+)
+
+
+def register(subparsers: Any) -> None:
+    """Add ``experiment`` and every study of STUDY_REGISTRARS under it."""
+    experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
+    studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
+    studies.required = True
+    for name in STUDY_REGISTRARS:
+        module, _, function = name.partition(":")
+        getattr(importlib.import_module(module), function)(studies)
+
+
+def _study_config(args: argparse.Namespace) -> StudyConfig:
+    if any(n != int(n) for n in args.ns):
+        raise UsageError("--ns must be whole numbers")
+    try:
+        return StudyConfig(
+            ns=tuple(int(n) for n in args.ns), baselines=tuple(args.baselines.split(",")),
+            rates=args.rates, fixed_rate=args.fixed_rate, batches=args.batches,
+            duration=args.duration, warmup=args.warmup, frame_bytes=args.frame_bytes,
+            channel=channel_spec(args), parallel=args.parallel,
+        )
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _testbed(args: argparse.Namespace) -> int:
+    config = _study_config(args)
+    require_testbed()
+    out: Path = args.out or Path("runs") / time.strftime("testbed-%Y%m%d-%H%M%S")
+    (out / "records").mkdir(parents=True, exist_ok=True)
+    ch = config.channel
+    print(f"testbed: {config.parallel} channel(s) of {format_rate(ch.rate_bps)} up / "
+          f"{format_rate(ch.down_bps)} down, {ch.queue_s * 1e3:g} ms queue; N in "
+          f"{', '.join(map(str, config.ns))}; about {config.estimated_runs} runs of "
+          f"{config.warmup + config.duration:g} s; output in {out}", file=sys.stderr)
+    results = run_study(config, out / "records", ProgressBar("testbed"))
+    files = write_study(out, config, results)
+    for path in files:
+        print(path)
+    if files[-1].suffix == ".md":
+        print(files[-1].read_text(), end="")
+    return 130 if results.interrupted else 0
+
+
+def register_testbed(studies: Any) -> None:
+    """Add ``experiment testbed`` to the ``experiment`` group's subparsers."""
+    testbed = studies.add_parser(
+        "testbed", help="the stationary study on real processes over an emulated channel",
+        description="WiSwarm against the push baselines (Zenoh put, UDP, TCP) over a tbf-"
+        "shaped channel between network namespaces (Linux, root): for each N, WiSwarm, each "
+        "baseline at --fixed-rate and at its best rate of --rates (found by a search). "
+        "Writes CSVs, figures with the simulator's model of the channel beside, gains.md.")
+    testbed.add_argument("--ns", type=numbers, default=tuple(float(n) for n in PAPER_NS),
+                         help="numbers of UAVs (default 2,4,...,14)")
+    testbed.add_argument("--baselines", default=",".join(BASELINES),
+                         help=f"comma-separated, of {', '.join(BASELINES)} (default all)")
+    testbed.add_argument("--rates", type=numbers, default=PAPER_RATES,
+                         help="the baselines' rate grid, fps (default the paper's)")
+    testbed.add_argument("--fixed-rate", type=float, default=50.0,
+                         help="the fixed-rate baselines' fps (default 50)")
+    testbed.add_argument("--batches", type=int, default=1, help="batches per point (default 1; "
+                         "the paper: 4)")
+    testbed.add_argument("--duration", type=float, default=30.0,
+                         help="seconds measured per run (default 30; the paper: 240)")
+    testbed.add_argument("--warmup", type=float, default=5.0,
+                         help="seconds before each run's window opens (default 5)")
+    testbed.add_argument("--frame-bytes", type=int, default=FRAME_BYTES,
+                         help=f"bytes per camera frame (default {FRAME_BYTES} = 224x224)")
+    testbed.add_argument("--parallel", type=int, default=2,
+                         help="runs at once, each on a channel of its own (default 2)")
+    testbed.add_argument("--out", type=Path, help="output directory (runs/testbed-<timestamp>)")
+    add_channel_arguments(testbed)
+    testbed.set_defaults(func=_testbed)

@@ -1,0 +1,224 @@
+"""One measured run over the emulated channel: a system, N followers, a window.
+
+The leader side (router + polling leader or baseline receiver) starts in the channel's
+leader namespace, the N followers in one host process in the follower namespace (each
+with a session or socket of its own: the frames still cross the channel; one process
+spares the CPU that N would cost). After a warm-up, AoI is measured over the window
+from the receiver's record of every delivery, with the generation time each frame
+carries (ground truth: every process reads the same host clock), identically for every
+system. The run is supervised: a process that dies is logged with the time and started
+again, and a rate changed on the channel (``wiswarm testbed set``) is noted when seen.
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import multiprocessing
+import threading
+import time
+from collections import defaultdict
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wiswarm_zenoh.baselines import (
+    BaselineFollowerOptions,
+    ReceiverOptions,
+    run_baseline_followers,
+    run_receiver,
+)
+from wiswarm_zenoh.core import AoITracker
+from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
+from wiswarm_zenoh.testbed.channel import Channel
+from wiswarm_zenoh.testbed.netns import run_in
+from wiswarm_zenoh.testbed.nodes import Placement
+from wiswarm_zenoh.transport.demo import Children
+from wiswarm_zenoh.transport.frames import FRAME_BYTES
+from wiswarm_zenoh.transport.runners import (
+    FollowerOptions,
+    LeaderOptions,
+    run_followers,
+    run_leader,
+    run_router,
+)
+from wiswarm_zenoh.units import format_rate
+
+log = logging.getLogger(__name__)
+
+SYSTEMS = ("wiswarm", "push-block", "push-drop", "udp", "tcp")
+WISWARM_SAMPLE_RATE = 100.0  # the paper: cameras at 100 fps into a LIFO of one
+SWARM = "testbed"
+SUPERVISE_PERIOD = 0.5  # seconds between checks of the processes, the rate and the queue
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run; validated on construction (ValueError names the field)."""
+
+    system: str
+    n: int
+    rate: float = WISWARM_SAMPLE_RATE  # camera frames/s (WiSwarm samples, baselines push)
+    duration: float = 30.0
+    warmup: float = 5.0
+    frame_bytes: int = FRAME_BYTES
+    batch: int = 0
+
+    def __post_init__(self) -> None:
+        if self.system not in SYSTEMS:
+            raise ValueError(f"system must be one of {', '.join(SYSTEMS)}, got {self.system!r}")
+        if self.n < 1:
+            raise ValueError(f"n must be >= 1, got {self.n}")
+        for name in ("rate", "duration"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.warmup >= 0:
+            raise ValueError(f"warmup must be >= 0, got {self.warmup}")
+
+    @property
+    def label(self) -> str:
+        return "wiswarm" if self.system == "wiswarm" else f"{self.system}@{self.rate:g}"
+
+    @property
+    def followers(self) -> list[str]:
+        return [f"uav{i}" for i in range(self.n)]
+
+
+@dataclass
+class RunOutcome:
+    """What a run measured, and what happened during it (time since the run's start).
+    The channel's counters cover the window: its throughput each way, tail drops, and
+    the uplink queue's mean backlog (what explains a baseline's age)."""
+
+    result: WifiResult
+    events: list[str] = field(default_factory=list)
+    complete: bool = True  # False: cut short (Ctrl-C), measured over a shorter window
+
+
+def window_metrics(rows: dict[str, list[tuple[float, float]]], followers: list[str],
+                   started: float, t0: float, t1: float, frame_bytes: int
+                   ) -> list[FollowerMetrics]:
+    """Per follower, AoI over [t0, t1] from its deliveries (delivered_at, generated_at):
+    the window opens with the age the last delivery before it left (or the time since
+    the run started, if none came)."""
+    metrics = []
+    for follower in followers:
+        deliveries = sorted(rows.get(follower, []))
+        before = [generated for delivered, generated in deliveries if delivered < t0]
+        freshest = max(before, default=started)
+        tracker = AoITracker(t0, initial_age=max(0.0, t0 - freshest))
+        for delivered, generated in deliveries:
+            if t0 <= delivered <= t1:
+                tracker.deliver(generated, delivered)
+        metrics.append(FollowerMetrics.from_tracker(follower, tracker, t1, frame_bytes))
+    return metrics
+
+
+def read_record(path: Path) -> dict[str, list[tuple[float, float]]]:
+    """A DeliveryRecord CSV as (delivered_at, generated_at) per follower."""
+    rows: dict[str, list[tuple[float, float]]] = defaultdict(list)
+    if not path.exists():
+        return rows
+    with path.open(newline="") as src:
+        for row in csv.DictReader(src):
+            rows[row["follower"]].append((float(row["delivered_at"]),
+                                          float(row["generated_at"])))
+    return rows
+
+
+def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Path) -> None:
+    """Router and receiver on the leader side, then the followers across the channel."""
+    children.start("router", run_in, place.leader_ns, run_router, place.router())
+    followers = spec.followers
+    if spec.system == "wiswarm":
+        children.start("leader", run_in, place.leader_ns, run_leader, place.leader(),
+                       LeaderOptions(SWARM, record=str(record), record_capture_stamps=True))
+        options = [FollowerOptions(SWARM, f, frame_bytes=spec.frame_bytes,
+                                   frame_rate=spec.rate) for f in followers]
+        children.start("followers", run_in, place.follower_ns, run_followers,
+                       place.follower(), options)
+        return
+    kind, _, congestion = spec.system.partition("-")
+    children.start("leader", run_in, place.leader_ns, run_receiver, place.leader(),
+                   ReceiverOptions(SWARM, kind, bind=place.socket_receiver, record=str(record)))
+    children.start("followers", run_in, place.follower_ns, run_baseline_followers,
+                   place.follower(), BaselineFollowerOptions(
+                       SWARM, tuple(followers), kind, spec.rate, congestion or "block",
+                       spec.frame_bytes, receiver=place.socket_receiver))
+
+
+class _Watch:
+    """Samples the channel during a run: its queue, its rate (noting any change)."""
+
+    def __init__(self, channel: Channel, started: float, events: list[str]) -> None:
+        self._channel = channel
+        self._started = started
+        self._events = events
+        self._rates = (channel.spec.rate_bps, channel.spec.down_bps)
+        self.backlog: list[int] = []
+
+    def sample(self) -> None:
+        self.backlog.append(self._channel.uplink().backlog_bytes)
+        current = Channel.attach(self._channel.run_id).spec
+        rates = (current.rate_bps, current.down_bps)
+        if rates != self._rates:
+            self._events.append(
+                f"t={time.time() - self._started:.1f}s: channel rate "
+                f"{format_rate(self._rates[0])}/{format_rate(self._rates[1])} -> "
+                f"{format_rate(rates[0])}/{format_rate(rates[1])} (up/down)")
+            log.warning("%s", self._events[-1])
+            self._rates = rates
+
+
+def measure(channel: Channel, spec: RunSpec, workdir: Path,
+            stop: threading.Event | None = None,
+            on_tick: Callable[[float], None] | None = None) -> RunOutcome:
+    """Run ``spec`` over ``channel``; ``stop`` ends the window early (the run is then
+    reported over what it measured); ``on_tick(fraction done)`` as it goes."""
+    stop = stop or threading.Event()
+    place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
+    record = workdir / f"{spec.label}-n{spec.n}-b{spec.batch}.csv"
+    events: list[str] = []
+    with Children(multiprocessing.get_context("spawn")) as children:
+        _start_nodes(children, place, spec, record)
+        started = time.time()
+        t0 = started + spec.warmup
+        t1 = t0 + spec.duration
+        watch = _Watch(channel, started, events)
+        up0, down0 = channel.uplink(), channel.downlink()  # again when the window opens
+        opened = False
+        while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
+            for name in ("router", "leader", "followers"):
+                if not children.alive(name):
+                    events.append(f"t={time.time() - started:.1f}s: {name} process ended; "
+                                  "started again")
+                    children.restart(name)
+            if time.time() >= t0:
+                if not opened:
+                    up0, down0, opened = channel.uplink(), channel.downlink(), True
+                watch.sample()
+            if on_tick is not None:
+                on_tick(min(1.0, (time.time() - started) / (t1 - started)))
+        end = min(time.time(), t1)
+        up1, down1 = channel.uplink(), channel.downlink()
+    complete = end >= t1
+    span = max(0.0, end - t0)
+    metrics = window_metrics(read_record(record), spec.followers, started, t0,
+                             max(end, t0), spec.frame_bytes)
+
+    def per_s(before: int, after: int) -> float:
+        return (after - before) / span if span > 0 else 0.0
+
+    counters = {
+        "uplink_mbps": per_s(up0.sent_bytes, up1.sent_bytes) * 8 / 1e6,
+        "downlink_mbps": per_s(down0.sent_bytes, down1.sent_bytes) * 8 / 1e6,
+        "uplink_drops": float(up1.dropped - up0.dropped),
+        "downlink_drops": float(down1.dropped - down0.dropped),
+        "uplink_backlog_kb": (sum(watch.backlog) / len(watch.backlog) / 1e3
+                              if watch.backlog else 0.0),
+    }
+    result = WifiResult(system=spec.system, n=spec.n,
+                        rate=None if spec.system == "wiswarm" else spec.rate,
+                        frame_bytes=spec.frame_bytes, duration=span, seed=spec.batch,
+                        followers=metrics, channel=counters)
+    return RunOutcome(result, events, complete)

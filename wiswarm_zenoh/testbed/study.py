@@ -1,0 +1,221 @@
+"""The paper's stationary study (Section IV-A) on real processes over the emulated channel.
+
+For every N: WiSwarm, each baseline at the fixed rate (50 fps), and each baseline at its
+best rate of the paper's grid. The best rate is found by a search, not by running the
+whole grid: a baseline's mean AoI against its rate falls while the channel keeps up
+(fresher frames) and climbs once the offered load exceeds the channel's share of each
+follower (queues build), so it is unimodal. The search starts at the grid rate just
+below that share (link rate / (N x frame bits)), measures the next rate up, and walks
+towards the better side until a rate is worse than the one before it: a bracket of
+three neighbours, usually two to four runs instead of ten.
+
+Runs go to ``parallel`` workers, each with a channel of its own (the channels are
+independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per channel the
+CPU is not what limits a run). A run's measurements are kept as they complete, so a
+study cut short by Ctrl-C reports what it measured.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES
+from wiswarm_zenoh.testbed.channel import Channel, ChannelSpec
+from wiswarm_zenoh.testbed.run import SYSTEMS, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.transport.frames import FRAME_BYTES
+
+log = logging.getLogger(__name__)
+
+BASELINES = tuple(s for s in SYSTEMS if s != "wiswarm")
+FRAME_OVERHEAD = 1.04  # headers per byte of frame on the wire (Zenoh, TCP/IP, Ethernet)
+SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
+JOIN_PERIOD = 0.2  # seconds between checks that the workers ended
+
+
+@dataclass(frozen=True)
+class StudyConfig:
+    """What to measure; validated on construction (ValueError names the field)."""
+
+    ns: tuple[int, ...] = PAPER_NS
+    baselines: tuple[str, ...] = BASELINES
+    rates: tuple[float, ...] = PAPER_RATES
+    fixed_rate: float = 50.0
+    batches: int = 1
+    duration: float = 30.0
+    warmup: float = 5.0
+    frame_bytes: int = FRAME_BYTES
+    channel: ChannelSpec = field(default_factory=ChannelSpec)
+    parallel: int = 1
+
+    def __post_init__(self) -> None:
+        if not self.ns or min(self.ns) < 1:
+            raise ValueError("ns must be a non-empty list of integers >= 1")
+        unknown = sorted(set(self.baselines) - set(BASELINES))
+        if unknown:
+            raise ValueError(f"unknown baselines {unknown}: choose from {', '.join(BASELINES)}")
+        if not self.rates or min(self.rates) <= 0:
+            raise ValueError("rates must be a non-empty list of numbers > 0")
+        if self.batches < 1:
+            raise ValueError(f"batches must be >= 1, got {self.batches}")
+        if self.parallel < 1:
+            raise ValueError(f"parallel must be >= 1, got {self.parallel}")
+        self.spec("wiswarm", self.ns[0], None, 0)  # the run's own checks
+
+    def spec(self, system: str, n: int, rate: float | None, batch: int) -> RunSpec:
+        return RunSpec(system, n, **({} if rate is None else {"rate": rate}),
+                       duration=self.duration, warmup=self.warmup,
+                       frame_bytes=self.frame_bytes, batch=batch)
+
+    def share_fps(self, n: int) -> float:
+        """Frames per second per follower that the uplink carries when N share it."""
+        return self.channel.rate_bps / (n * self.frame_bytes * 8 * FRAME_OVERHEAD)
+
+    @property
+    def estimated_runs(self) -> int:
+        per_n = 1 + len(self.baselines) * (1 + SEARCH_RUNS)
+        return per_n * len(self.ns) * self.batches
+
+
+Measure = Callable[[RunSpec], RunOutcome]
+
+
+@dataclass
+class Job:
+    """Work for one worker: a single run, or the best-rate search of one baseline."""
+
+    system: str
+    n: int
+    batch: int
+    search: bool = False
+
+
+def best_rate(config: StudyConfig, job: Job, run: Measure) -> float:
+    """The grid rate with the lowest mean AoI for ``job``'s baseline at N (see module)."""
+    grid = sorted(config.rates)
+    share = config.share_fps(job.n)
+    start = max((i for i, r in enumerate(grid) if r <= share), default=0)
+    aoi: dict[int, float] = {}
+
+    def mean_aoi(i: int) -> float:
+        if i not in aoi:
+            outcome = run(config.spec(job.system, job.n, grid[i], job.batch))
+            aoi[i] = outcome.result.mean("mean_aoi_s")
+        return aoi[i]
+
+    best = start
+    step = 1 if start + 1 < len(grid) and mean_aoi(start + 1) < mean_aoi(start) else -1
+    if step == 1:
+        best = start + 1
+    while 0 <= best + step < len(grid) and mean_aoi(best + step) < mean_aoi(best):
+        best += step
+    return grid[best]
+
+
+def plan(config: StudyConfig) -> Iterator[Job]:
+    """Every job, N by N: WiSwarm, the fixed-rate baselines, then the searches."""
+    for n in config.ns:
+        for batch in range(config.batches):
+            yield Job("wiswarm", n, batch)
+            for system in config.baselines:
+                yield Job(system, n, batch)
+            for system in config.baselines:
+                yield Job(system, n, batch, search=True)
+
+
+@dataclass
+class StudyResults:
+    """Every run measured so far (thread-safe), and each search's choice."""
+
+    outcomes: list[RunOutcome] = field(default_factory=list)
+    interrupted: bool = False
+    best: dict[tuple[str, int, int], float] = field(default_factory=dict)  # (system, n, batch)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def add(self, outcome: RunOutcome) -> None:
+        with self.lock:
+            self.outcomes.append(outcome)
+
+
+def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int], None],
+              stop: threading.Event | None = None) -> StudyResults:
+    """Run every job of the plan on ``config.parallel`` channels; returns what was
+    measured, also when Ctrl-C or ``stop`` ends it midway (``interrupted``; the runs in
+    progress are kept, over the window they measured). Each channel is removed when
+    its worker ends."""
+    stop = stop or threading.Event()
+    results = StudyResults()
+    jobs: queue.SimpleQueue[Job] = queue.SimpleQueue()
+    for job in plan(config):
+        jobs.put(job)
+    completed = [0]
+    failures: list[BaseException] = []
+
+    def run_on(channel: Channel) -> Measure:
+        def run(spec: RunSpec) -> RunOutcome:
+            if stop.is_set():
+                raise _Stopped
+            outcome = measure(channel, spec, workdir, stop)
+            if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
+                raise _Stopped
+            results.add(outcome)
+            with results.lock:
+                completed[0] += 1
+                progress(completed[0], max(config.estimated_runs, completed[0]))
+            for event in outcome.events:
+                log.warning("%s N=%d: %s", spec.label, spec.n, event)
+            if not outcome.complete:
+                raise _Stopped
+            return outcome
+        return run
+
+    def worker(done: threading.Event) -> None:
+        try:
+            with Channel(config.channel) as channel:
+                run = run_on(channel)
+                while not stop.is_set():
+                    try:
+                        job = jobs.get_nowait()
+                    except queue.Empty:
+                        return
+                    if job.search:
+                        best = best_rate(config, job, run)
+                        with results.lock:
+                            results.best[(job.system, job.n, job.batch)] = best
+                    else:
+                        rate = None if job.system == "wiswarm" else config.fixed_rate
+                        run(config.spec(job.system, job.n, rate, job.batch))
+        except _Stopped:
+            return
+        except BaseException as exc:  # reported by the caller, after every worker ended
+            failures.append(exc)
+            stop.set()
+        finally:
+            done.set()
+
+    progress(0, config.estimated_runs)
+    finished = [threading.Event() for _ in range(config.parallel)]
+    workers = [threading.Thread(target=worker, args=(done,), name=f"testbed-{i}")
+               for i, done in enumerate(finished)]
+    for thread in workers:
+        thread.start()
+    while True:  # not Thread.join: once interrupted, it may no longer wait (CPython 3.11)
+        try:
+            for done in finished:
+                while not done.wait(JOIN_PERIOD):
+                    pass
+            break
+        except KeyboardInterrupt:  # Ctrl-C: the runs in progress end and are kept
+            stop.set()
+    results.interrupted = stop.is_set() and not failures
+    if failures:
+        raise RuntimeError(f"a testbed run failed: {failures[0]}") from failures[0]
+    return results
+
+
+class _Stopped(Exception):
+    """The study was told to stop: the worker leaves its job."""
