@@ -1,7 +1,8 @@
-"""The tracking app's side of the push baseline (the middleware's ``baselines``): each
-UAV puts its frames with the middleware's ``PushSender`` (a FIFO drained in order,
-reliable delivery, so a congested path builds the FIFO up, as in the paper), and the
-leader takes them from the middleware's ``Receiver`` into the app's ``Reception``, and
+"""The tracking app's side of the push baseline; the baseline itself is the middleware's
+(``wiswarm_zenoh.baselines``). Each UAV puts its frames with the middleware's
+``PushSender`` (a FIFO drained in order, reliable delivery, so a congested path builds
+the FIFO up, as in the paper); the leader takes them from the middleware's ``Receiver``
+(which measures and publishes the baseline's stats) into the app's ``Reception``, and
 sends the plans on the control key with the wire format of the polling system, when they
 change and every ``control_period``. AoI comes from the generation time every frame
 carries (the UAVs' and leader's clocks are taken as one: there is no poll to estimate an
@@ -20,7 +21,6 @@ import zenoh
 
 from apps.tracking.reception import Reception
 from wiswarm_zenoh.baselines import Receiver
-from wiswarm_zenoh.baselines.stamp import Stamped
 from wiswarm_zenoh.core import Waypoint
 from wiswarm_zenoh.core.wire import Control, encode_control, validate_waypoints
 from wiswarm_zenoh.transport.keys import SwarmKeys
@@ -38,7 +38,6 @@ class PushLeader:
                  control_period: float = CONTROL_PERIOD,
                  clock: Callable[[], float] = time.time) -> None:
         self.keys = SwarmKeys(swarm)
-        self._reception = reception
         self._clock = clock
         self._period = control_period
         self._entries: dict[str, list[Waypoint]] = {}
@@ -51,9 +50,9 @@ class PushLeader:
         self._control = self._entities.enter_context(
             session.declare_publisher(self.keys.control, express=True)
         )
-        self._receiver = self._entities.enter_context(
-            Receiver(session, swarm, "push", on_frame=self._on_frame, clock=clock))
-        self.bad_input = self._receiver.bad_input
+        receiver = self._entities.enter_context(
+            Receiver(session, swarm, "push", on_frame=reception.receive, clock=clock))
+        self.bad_input = receiver.bad_input
         self._thread = threading.Thread(target=self._run, name="push-control", daemon=True)
         self._thread.start()
 
@@ -72,9 +71,6 @@ class PushLeader:
     def weights(self) -> dict[str, float]:
         with self._lock:
             return dict(self._weights)
-
-    def _on_frame(self, frame: Stamped, now: float) -> None:
-        self._reception.receive(frame.follower, frame.payload, frame.generated_at, now)
 
     def _run(self) -> None:
         while not self._stop.is_set():

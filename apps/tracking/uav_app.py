@@ -35,7 +35,7 @@ from apps.tracking.metrics import UavMetrics
 from apps.tracking.render import Renderer
 from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
 from apps.tracking.world import World, WorldConfig
-from wiswarm_zenoh.baselines import PushSender
+from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
 from wiswarm_zenoh.core import FollowerConfig, Waypoint
 from wiswarm_zenoh.transport import FollowerNode, SessionSpec, SwarmKeys
 from wiswarm_zenoh.transport.badinput import BadInputLog
@@ -79,7 +79,7 @@ class UavOptions:
     max_speed_mps: float = 2.0
     ground_resolution_m: float = 0.01
     sample_hz: float = 20.0
-    push_fifo: int = 64
+    push_fifo: int = DEFAULT_CAPACITY  # frames: the middleware's push FIFO
 
     def __post_init__(self) -> None:
         if self.system not in SYSTEMS:

@@ -42,14 +42,6 @@ def wiswarm(monkeypatch: pytest.MonkeyPatch) -> object:
     (["follower", "--id", "control"], "follower id 'control' is reserved"),
     (["follower", "--id", "a", "--frame-bytes", "8"], "--frame-bytes must be in [16,"),
     (["follower", "--id", "a", "--fragment-size", "100"], "fragment_size must be >"),
-    (["follower", "--id", "a", "--system", "udp"], "--system udp needs --to HOST:PORT"),
-    (["follower", "--id", "a", "--system", "tcp", "--to", "127.0.0.1:9", "--congestion", "drop"],
-     "--congestion is for --system push, not tcp"),
-    (["follower", "--id", "a", "--congestion", "drop"], "--congestion is for --system push"),
-    (["follower", "--id", "a", "--system", "udp", "--to", "127.0.0.1:9", "--frame-bytes",
-      "65500"], "does not fit one UDP datagram"),
-    (["follower", "--id", "a", "--system", "udp", "--to", "nowhere"], "must look like HOST:PORT"),
-    (["leader", "--system", "tcp", "--bind", "nowhere"], "must look like HOST:PORT"),
 ])
 def test_bad_flags_are_one_line_and_exit_2(
     wiswarm: object, capsys: pytest.CaptureFixture[str], argv: list[str], message: str

@@ -1,18 +1,27 @@
 """The baselines a Zenoh user would pick instead of polling: frames pushed at a fixed
-rate over Zenoh ``put`` (reliable or best effort), plain UDP or plain TCP, and the
-receivers that measure them as the polling leader measures its deliveries."""
+rate into a FIFO and sent over Zenoh ``put`` (block: reliable, the paper's WiFi-TCP;
+drop: Zenoh's default), plain UDP or plain TCP (the paper's WiFi-UDP and WiFi-TCP), and
+the receivers that measure them as the polling leader measures its deliveries."""
 
-from wiswarm_zenoh.baselines.receivers import Receiver
+from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY, FifoSender, FrameFifo
+from wiswarm_zenoh.baselines.receivers import SYSTEMS, Receiver
 from wiswarm_zenoh.baselines.runners import (
     BaselineFollowerOptions,
     ReceiverOptions,
     run_baseline_followers,
     run_receiver,
 )
-from wiswarm_zenoh.baselines.senders import PushSender, TcpSender, UdpSender
+from wiswarm_zenoh.baselines.senders import CONGESTION, PushSender, TcpSender, UdpSender
+from wiswarm_zenoh.baselines.servers import DEFAULT_BIND
 
 __all__ = [
+    "CONGESTION",
+    "DEFAULT_BIND",
+    "DEFAULT_CAPACITY",
+    "SYSTEMS",
     "BaselineFollowerOptions",
+    "FifoSender",
+    "FrameFifo",
     "PushSender",
     "Receiver",
     "ReceiverOptions",

@@ -1,5 +1,6 @@
 """The push baselines as whole programs: what ``wiswarm follower|leader --system
-push|udp|tcp`` run, and what the testbed starts as ``spawn`` children."""
+push|udp|tcp`` run in the foreground, and what experiments start as ``spawn`` children
+(through ``run_child``, like the polling nodes of ``wiswarm_zenoh.transport.runners``)."""
 
 from __future__ import annotations
 
@@ -8,17 +9,19 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import dataclass
 
-from wiswarm_zenoh.baselines.receivers import Receiver
-from wiswarm_zenoh.baselines.senders import (
-    DEFAULT_CAPACITY,
-    FifoSender,
-    FrameFifo,
-    PushSender,
-    TcpSender,
-    UdpSender,
+import zenoh
+
+from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY, FifoSender
+from wiswarm_zenoh.baselines.receivers import SYSTEMS, Receiver
+from wiswarm_zenoh.baselines.senders import CONGESTION, PushSender, TcpSender, UdpSender
+from wiswarm_zenoh.baselines.servers import DEFAULT_BIND
+from wiswarm_zenoh.baselines.stamp import (
+    MAX_FRAME_BYTES,
+    parse_address,
+    sender_id,
+    udp_frame_limit,
 )
-from wiswarm_zenoh.baselines.stamp import Stamped
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, SyntheticFrames
+from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, SyntheticFrames
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.runners import (
     DeliveryRecord,
@@ -26,55 +29,84 @@ from wiswarm_zenoh.transport.runners import (
     StopSignal,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport.ticker import MAX_RATE_HZ
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)
 
-SENDERS = ("push", "udp", "tcp")
-DEFAULT_BIND = "0.0.0.0:7450"
+
+def _check_system(system: str) -> None:
+    if system not in SYSTEMS:
+        raise ValueError(f"system must be one of {', '.join(SYSTEMS)}, got {system!r}")
 
 
 @dataclass(frozen=True)
 class BaselineFollowerOptions:
-    """Followers of one host process pushing synthetic frames at ``rate``."""
+    """Followers of one host process pushing synthetic frames at ``rate``; checked on
+    construction (ValueError names the field)."""
 
     swarm: str
     follower_ids: tuple[str, ...]
     system: str  # push, udp or tcp
     rate: float
-    congestion: str = "block"  # push only
+    congestion: str = "block"  # push: block or drop
     frame_bytes: int = FRAME_BYTES
-    receiver: str | None = None  # HOST:PORT, udp and tcp
+    receiver: str | None = None  # udp and tcp: HOST:PORT
     capacity: int = DEFAULT_CAPACITY
     duration: float | None = None
 
     def __post_init__(self) -> None:
-        if self.system not in SENDERS:
-            raise ValueError(f"system must be one of {', '.join(SENDERS)}, got {self.system!r}")
-        if self.system != "push" and self.receiver is None:
-            raise ValueError(f"--system {self.system} needs --to HOST:PORT (the receiver)")
+        SwarmKeys(self.swarm)
+        _check_system(self.system)
+        if not self.follower_ids or len(set(self.follower_ids)) != len(self.follower_ids):
+            raise ValueError(f"follower_ids must be distinct and not empty: {self.follower_ids}")
+        for follower in self.follower_ids:
+            sender_id(follower)
+        if self.congestion not in CONGESTION:
+            raise ValueError(f"congestion must be block or drop, got {self.congestion!r}")
+        if not 0 < self.rate <= MAX_RATE_HZ:
+            raise ValueError(f"rate must be in (0, {MAX_RATE_HZ:g}], got {self.rate!r}")
+        if self.capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {self.capacity}")
+        if not FRAME_HEADER_BYTES <= self.frame_bytes <= MAX_FRAME_BYTES:
+            raise ValueError(f"frame_bytes must be in [{FRAME_HEADER_BYTES}, {MAX_FRAME_BYTES}],"
+                             f" got {self.frame_bytes}")
+        if self.duration is not None and not self.duration > 0:
+            raise ValueError(f"duration must be > 0, got {self.duration}")
+        if self.receiver is not None:  # push has none: it goes through Zenoh
+            parse_address(self.receiver)
+        elif self.system != "push":
+            raise ValueError(f"system {self.system} needs a receiver (HOST:PORT)")
+        if self.system == "udp":
+            limit = min(udp_frame_limit(f) for f in self.follower_ids)
+            if self.frame_bytes > limit:
+                raise ValueError(f"frame_bytes {self.frame_bytes} does not fit one UDP datagram "
+                                 f"(at most {limit} with these follower ids)")
+
+
+def _open_sender(session: zenoh.Session, options: BaselineFollowerOptions,
+                 follower: str) -> FifoSender:
+    if options.system == "push":
+        return PushSender(session, options.swarm, follower, options.congestion,
+                          options.capacity)
+    sender = UdpSender if options.system == "udp" else TcpSender
+    return sender(follower, str(options.receiver), options.capacity)
 
 
 def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
                            stop: StopSignal, ready: ReadySignal | None = None) -> None:
-    """Each follower with a Zenoh session of its own (its liveliness token, so tools see
-    who is up; for push, its publisher too) and, for udp/tcp, a socket of its own."""
+    """Each follower as if on a UAV of its own: a Zenoh session (its liveliness token, so
+    the receiver and other tools see who is up; for push, its publisher too) and, for
+    udp/tcp, a socket. Stops when told to, or after ``duration``."""
     keys = SwarmKeys(options.swarm)
     with ExitStack() as stack:
-        feeds: list[tuple[str, FrameFifo, SyntheticFrames]] = []
+        feeds: list[tuple[str, FifoSender, SyntheticFrames]] = []
         for follower in options.follower_ids:
             session = stack.enter_context(spec.open())
             stack.enter_context(session.liveliness().declare_token(keys.member(follower)))
-            sender: FifoSender
-            if options.system == "push":
-                sender = PushSender(session, options.swarm, follower, options.congestion,
-                                    options.capacity)
-            elif options.system == "udp":
-                sender = UdpSender(follower, str(options.receiver), options.capacity)
-            else:
-                sender = TcpSender(follower, str(options.receiver), options.capacity)
+            sender = _open_sender(session, options, follower)
             stack.callback(sender.close)
-            feeds.append((follower, sender.fifo,
+            feeds.append((follower, sender,
                           SyntheticFrames(sender.offer, options.frame_bytes, options.rate)))
         for _, _, frames in feeds:
             frames.start()
@@ -82,36 +114,38 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
         if ready is not None:
             ready.set()
         wait_until_stopped(stop, options.duration)
-        for follower, fifo, _ in feeds:
-            log.info("%s: %d frames offered, %d sent, %d dropped by the FIFO", follower,
-                     fifo.offered, fifo.sent, fifo.dropped)
+        for follower, sender, _ in feeds:
+            log.info("%s: %d frames offered, %d sent, %d dropped by the full FIFO", follower,
+                     sender.fifo.offered, sender.fifo.sent, sender.fifo.dropped)
 
 
 @dataclass(frozen=True)
 class ReceiverOptions:
+    """A baseline's receiver; checked on construction (ValueError names the field)."""
+
     swarm: str
     system: str  # push, udp or tcp
-    bind: str = DEFAULT_BIND
+    bind: str = DEFAULT_BIND  # udp and tcp: HOST:PORT
     record: str | None = None  # CSV of every delivery (DeliveryRecord's fields)
     duration: float | None = None
-    label: str | None = None  # the leader stats' "policy" (e.g. push-block)
+
+    def __post_init__(self) -> None:
+        SwarmKeys(self.swarm)
+        _check_system(self.system)
+        parse_address(self.bind)
+        if self.duration is not None and not self.duration > 0:
+            raise ValueError(f"duration must be > 0, got {self.duration}")
 
 
 def run_receiver(spec: SessionSpec, options: ReceiverOptions, stop: StopSignal,
                  ready: ReadySignal | None = None,
                  show: Callable[[Receiver], None] | None = None) -> Receiver:
-    """A baseline's receiver until stopped; ``show`` is called a few times a second.
-    Returns the (closed) receiver, whose last stats remain readable."""
+    """A baseline's receiver until stopped; ``show`` is called with it a few times a
+    second. Returns the (closed) receiver, whose last stats remain readable."""
     record = DeliveryRecord(options.record) if options.record else None
-
-    def on_frame(frame: Stamped, now: float) -> None:
-        if record is not None:
-            record.row(frame.follower, frame.seq, frame.generated_at, now, len(frame.payload))
-
     try:
-        with spec.open() as session, Receiver(
-                session, options.swarm, options.system, options.bind, on_frame=on_frame,
-                label=options.label) as receiver:
+        with spec.open() as session, Receiver(session, options.swarm, options.system,
+                                              options.bind, record=record) as receiver:
             if ready is not None:
                 ready.set()
             wait_until_stopped(stop, options.duration,

@@ -17,15 +17,16 @@ import threading
 from typing import Any
 
 from wiswarm_zenoh.baselines import (
+    CONGESTION,
+    DEFAULT_BIND,
+    DEFAULT_CAPACITY,
     BaselineFollowerOptions,
     Receiver,
     ReceiverOptions,
     run_baseline_followers,
     run_receiver,
 )
-from wiswarm_zenoh.baselines.runners import DEFAULT_BIND
-from wiswarm_zenoh.baselines.senders import CONGESTION, DEFAULT_CAPACITY, parse_address
-from wiswarm_zenoh.baselines.stamp import HEADER_BYTES, MAX_UDP_PAYLOAD
+from wiswarm_zenoh.baselines import SYSTEMS as BASELINES
 from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
@@ -49,8 +50,13 @@ from wiswarm_zenoh.transport.zenoh_config import (
 )
 
 DEFAULT_SWARM = "swarm"
-SYSTEMS = ("wiswarm", "push", "udp", "tcp")
-BASELINE_RATE = 50.0  # the paper's fixed-rate baselines
+SYSTEMS = ("wiswarm", *BASELINES)
+BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
+# Flags only some systems take (default None, so that one given shows) and who takes them.
+LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
+               "alpha": ("wiswarm",), "control_period": ("wiswarm",), "bind": ("udp", "tcp")}
+FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
+                 "congestion": ("push",), "to": ("udp", "tcp")}
 
 
 def _positive(kind: type[float] | type[int], most: float = float("inf")) -> Any:
@@ -109,37 +115,53 @@ def _router(args: argparse.Namespace) -> int:
     return 0
 
 
+def _only_for(args: argparse.Namespace, only: dict[str, tuple[str, ...]]) -> None:
+    """A flag given to a system that does not take it is the user's to fix."""
+    for dest, systems in only.items():
+        if getattr(args, dest) is not None and args.system not in systems:
+            raise UsageError(f"--{dest.replace('_', '-')} is for --system "
+                             f"{'/'.join(systems)}, not {args.system}")
+
+
+def _given(args: argparse.Namespace, *dests: str) -> dict[str, Any]:
+    """The flags given, by name: the others keep their config's defaults."""
+    return {dest: getattr(args, dest) for dest in dests if getattr(args, dest) is not None}
+
+
 def _receiver(args: argparse.Namespace) -> int:
     """``wiswarm leader --system push|udp|tcp``: a baseline's receiver."""
-    options = ReceiverOptions(args.swarm, args.system, args.bind, args.record, args.duration)
-    if args.system != "push":
-        _checked(parse_address, args.bind)
+    options = _checked(ReceiverOptions, args.swarm, args.system, args.bind or DEFAULT_BIND,
+                       args.record, args.duration)
     spec = _spec(args, "peer")
-    table, title = LiveTable(), f"wiswarm leader: swarm {args.swarm!r}, {args.system} receiver"
+    table, rates = LiveTable(), PollRates()
+    where = "" if args.system == "push" else f" on {options.bind}"
+    title = f"wiswarm leader: swarm {args.swarm!r}, {args.system} receiver{where}"
 
     def show(receiver: Receiver) -> None:
-        rates = {str(r["follower"]): float(r["deliveries_per_s"]) for r in receiver.latest}
-        table.show(format_table(receiver.latest, rates, f"{title}, deliveries/s in the "
-                                f"polls/s column, up {receiver.summary.uptime_s:.0f} s"))
+        summary = receiver.summary
+        for record in receiver.latest:
+            rates.observe(str(record["follower"]), float(record["deliveries"]),
+                          summary.uptime_s)
+        header = (f"{title} ({summary.policy}), deliveries/s in the polls/s column, "
+                  f"up {summary.uptime_s:.0f} s")
+        table.show(format_table(receiver.latest, rates.rates, header))
 
-    try:
-        receiver = run_receiver(spec, options, threading.Event(), _Announce(
-            f"{title}: waiting for frames (Ctrl-C to stop)"), show)
-    except OSError as exc:  # the address is taken or not ours
-        raise UsageError(f"cannot listen on {args.bind}: {exc.strerror or exc}") from None
-    print("\n".join(["", "summary", *format_table(receiver.latest, {}, title)]))
+    receiver = run_receiver(spec, options, threading.Event(),
+                            _Announce(f"{title}: waiting for frames (Ctrl-C to stop)"), show)
+    print("\n".join(["", "summary", *format_table(receiver.latest, rates.rates, title)]))
     return 0
 
 
 def _leader(args: argparse.Namespace) -> int:
     _checked(SwarmKeys, args.swarm)
+    _only_for(args, LEADER_ONLY)
     if args.system != "wiswarm":
         return _receiver(args)
-    config = _checked(LeaderConfig, policy=args.policy, timeout=args.timeout,
-                      window=args.window, alpha=args.alpha)
-    if args.control_period < 0:
-        raise UsageError(f"--control-period must be >= 0, got {args.control_period}")
-    options = LeaderOptions(args.swarm, config, args.duration, args.control_period, args.record)
+    config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha"))
+    control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
+    if control_period < 0:
+        raise UsageError(f"--control-period must be >= 0, got {control_period}")
+    options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record)
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
@@ -159,51 +181,37 @@ def _leader(args: argparse.Namespace) -> int:
 
 def _baseline_follower(args: argparse.Namespace) -> int:
     """``wiswarm follower --system push|udp|tcp``: frames pushed at ``--rate``."""
-    rate = args.rate or BASELINE_RATE
-    limit = MAX_UDP_PAYLOAD - HEADER_BYTES - len(args.id.encode())
-    if args.system == "udp" and args.frame_bytes > limit:
-        raise UsageError(f"--frame-bytes {args.frame_bytes} does not fit one UDP datagram "
-                         f"(at most {limit} with this id)")
-    if args.to is not None:
-        _checked(parse_address, args.to)
-    options = _checked(BaselineFollowerOptions, args.swarm, (args.id,), args.system, rate,
-                       args.congestion or "block", args.frame_bytes, args.to,
-                       args.capacity or DEFAULT_CAPACITY, args.duration)
+    if args.system != "push" and args.to is None:
+        raise UsageError(f"--system {args.system} needs --to HOST:PORT (where "
+                         f"wiswarm leader --system {args.system} listens)")
+    options = _checked(BaselineFollowerOptions, args.swarm, (args.id,), args.system,
+                       args.rate or BASELINE_RATE, args.congestion or "block",
+                       args.frame_bytes, args.to, args.capacity or DEFAULT_CAPACITY,
+                       args.duration)
     spec = _spec(args, "peer")
-    how = f"{args.congestion or 'block'} put" if args.system == "push" else f"to {args.to}"
+    how = f"{options.congestion} put" if args.system == "push" else f"to {args.to}"
     run_baseline_followers(spec, options, threading.Event(), _Announce(
-        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {rate:g} Hz, "
-        f"{args.system} ({how}) (Ctrl-C to stop)"))
+        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {options.rate:g} Hz "
+        f"into a FIFO of {options.capacity}, {args.system} ({how}) (Ctrl-C to stop)"))
     return 0
 
 
 def _follower(args: argparse.Namespace) -> int:
     _checked(check_follower, args.id)
     _checked(SwarmKeys, args.swarm)
-    if args.system == "wiswarm":
-        for flag, value in (("--congestion", args.congestion), ("--to", args.to)):
-            if value is not None:
-                raise UsageError(f"{flag} is for --system push/udp/tcp, not wiswarm")
-    else:
-        if args.congestion is not None and args.system != "push":
-            raise UsageError(f"--congestion is for --system push, not {args.system}")
-        if args.system != "push" and args.to is None:
-            raise UsageError(f"--system {args.system} needs --to HOST:PORT (the receiver, "
-                             "wiswarm leader --system " + args.system + ")")
-        _check_frame_bytes(args.frame_bytes, FollowerConfig())
+    _only_for(args, FOLLOWER_ONLY)
+    if args.system != "wiswarm":
         return _baseline_follower(args)
-    args.rate = args.rate or FRAME_RATE
-    args.capacity = args.capacity or 1
-    config = _checked(FollowerConfig, queue=args.queue, capacity=args.capacity,
-                      rate_hz=args.rate if args.queue == "fifo" else None,
-                      fragment_size=args.fragment_size)
+    rate = args.rate or FRAME_RATE
+    config = _checked(FollowerConfig, **_given(args, "queue", "capacity", "fragment_size"),
+                      rate_hz=rate if args.queue == "fifo" else None)
     _check_frame_bytes(args.frame_bytes, config)
-    options = FollowerOptions(args.swarm, args.id, config, args.frame_bytes, args.rate,
+    options = FollowerOptions(args.swarm, args.id, config, args.frame_bytes, rate,
                               args.duration)
     spec = _spec(args, "peer")
     run_follower(spec, options, threading.Event(), _Announce(
-        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {args.rate:g} Hz, "
-        f"{args.queue} queue (Ctrl-C to stop)"))
+        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {rate:g} Hz, "
+        f"{config.queue} queue (Ctrl-C to stop)"))
     return 0
 
 
@@ -226,49 +234,68 @@ def register(subparsers: Any) -> None:
     _add_common(router, MODES)
     router.set_defaults(func=_router)
 
-    leader = subparsers.add_parser("leader", help="poll the followers of a swarm (or receive "
-                                   "a push baseline's frames)")
+    defaults = LeaderConfig()
+    leader = subparsers.add_parser(
+        "leader", help="poll the followers of a swarm, or receive a baseline's frames",
+        description="Polls the followers of a swarm (--system wiswarm), or receives the "
+        "frames a baseline's followers push at a fixed rate (push: Zenoh put on "
+        "wiswarm/<swarm>/<id>/push; udp, tcp: plain sockets on --bind) and measures them "
+        "alike. Either way it publishes the same stats JSON on wiswarm/<swarm>/<id>/stats "
+        "and wiswarm/<swarm>/leader/stats and shows them live.")
     _add_swarm(leader)
     leader.add_argument("--system", choices=SYSTEMS, default="wiswarm",
-                        help="wiswarm: poll (default); push|udp|tcp: receive a baseline's "
-                        "frames and publish the same stats")
-    leader.add_argument("--bind", default=DEFAULT_BIND, metavar="HOST:PORT",
-                        help=f"udp/tcp receivers listen here (default {DEFAULT_BIND})")
-    leader.add_argument("--policy", default="whittle", choices=sorted(POLICIES))
-    leader.add_argument("--timeout", type=_positive(float), default=0.3,
-                        help="seconds to wait for a reply (default 0.3)")
-    leader.add_argument("--window", type=_positive(int), default=20,
-                        help="polls over which each follower's reliability is estimated")
-    leader.add_argument("--alpha", type=float, default=0.8, help="weight EMA factor in [0, 1]")
-    leader.add_argument("--control-period", type=float, default=CONTROL_PERIOD,
-                        metavar="SECONDS", help="repeat unchanged control information this "
-                        f"often (default {CONTROL_PERIOD}); 0 puts it with every poll")
+                        help="wiswarm: poll (default); push|udp|tcp: receive that baseline")
+    leader.add_argument("--bind", metavar="HOST:PORT",
+                        help=f"udp/tcp: listen here (default {DEFAULT_BIND})")
+    leader.add_argument("--policy", choices=sorted(POLICIES),
+                        help=f"wiswarm: whom to poll next (default {defaults.policy})")
+    leader.add_argument("--timeout", type=_positive(float),
+                        help=f"wiswarm: seconds to wait for a reply (default {defaults.timeout})")
+    leader.add_argument("--window", type=_positive(int),
+                        help="wiswarm: polls over which each follower's reliability is "
+                        f"estimated (default {defaults.window})")
+    leader.add_argument("--alpha", type=float,
+                        help=f"wiswarm: weight EMA factor in [0, 1] (default {defaults.alpha})")
+    leader.add_argument("--control-period", type=float, metavar="SECONDS",
+                        help="wiswarm: repeat unchanged control information this often "
+                        f"(default {CONTROL_PERIOD}); 0 puts it with every poll")
     leader.add_argument("--record", metavar="CSV", help="write every delivery to this file")
     _add_common(leader, ("peer", "client"))
     leader.set_defaults(func=_leader)
 
-    follower = subparsers.add_parser("follower", help="a follower sending synthetic frames")
+    follower = subparsers.add_parser(
+        "follower", help="a follower sending synthetic frames",
+        description="A follower taking synthetic frames at --rate. --system wiswarm (the "
+        "default) queues them (LIFO: the freshest only) and answers the leader's polls; "
+        "push, udp and tcp are the baselines: every frame is stamped into a FIFO of "
+        f"--capacity frames (default {DEFAULT_CAPACITY}; a full FIFO drops the new frame) "
+        "and sent in order, by Zenoh put (push) or plain sockets to --to (udp: one "
+        "datagram a frame; tcp: one connection).")
     _add_swarm(follower)
     follower.add_argument("--id", required=True, help="this follower's id (a key chunk)")
     follower.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                           help="wiswarm: answer polls (default); push: put every frame on "
                           "wiswarm/<swarm>/<id>/push; udp/tcp: send every frame to --to")
     follower.add_argument("--congestion", choices=sorted(CONGESTION),
-                          help="push: block (reliable, the put waits; default) or drop "
-                          "(Zenoh's default for put)")
+                          help="push: block (reliable, the put waits while Zenoh's queues "
+                          "are full: the paper's WiFi-TCP; default) or drop (a plain put: "
+                          "Zenoh's default)")
     follower.add_argument("--to", metavar="HOST:PORT",
                           help="udp/tcp: the receiver (wiswarm leader --system udp|tcp)")
-    follower.add_argument("--queue", choices=["lifo", "fifo"], default="lifo")
+    follower.add_argument("--queue", choices=["lifo", "fifo"],
+                          help="wiswarm: the follower's queue (default lifo)")
     follower.add_argument("--capacity", type=_positive(int),
                           help=f"queue capacity (default 1; push/udp/tcp: a FIFO of "
                           f"{DEFAULT_CAPACITY})")
     follower.add_argument("--rate", type=_positive(float, MAX_RATE_HZ),
-                          help=f"frames per second (default {FRAME_RATE:g}; push/udp/tcp "
-                          f"{BASELINE_RATE:g}) and the FIFO's rate control")
-    follower.add_argument("--fragment-size", type=_positive(int), default=65536,
-                          help="bytes per reply (default 65536)")
+                          help=f"frames per second (default {FRAME_RATE:g}; push/udp/tcp: "
+                          f"{BASELINE_RATE:g}, the paper's), and a wiswarm FIFO's rate control")
+    follower.add_argument("--fragment-size", type=_positive(int),
+                          help="wiswarm: bytes per reply (default "
+                          f"{FollowerConfig().fragment_size})")
     follower.add_argument("--frame-bytes", type=_positive(int), default=FRAME_BYTES,
-                          help=f"bytes per synthetic frame (default {FRAME_BYTES} = 224x224)")
+                          help=f"bytes per synthetic frame (default {FRAME_BYTES} = 224x224; "
+                          "udp: what fits one datagram)")
     _add_common(follower, ("peer", "client"))
     follower.set_defaults(func=_follower)
 

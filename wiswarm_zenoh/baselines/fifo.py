@@ -1,0 +1,105 @@
+"""The one queueing design of every push baseline, so that push, UDP and TCP differ only
+in transport (the paper's WiFi-UDP/TCP: frames at a fixed rate into a FIFO).
+
+A frame is stamped (generation time, sequence number) when the camera offers it and
+enters a bounded FIFO; a full FIFO drops the new frame (tail drop, as the tracking
+demo's push baseline always did). A sender thread takes frames in order and blocks while
+the transport does (Zenoh's BLOCK congestion control, a full TCP send buffer, a UDP
+socket buffer still full of packets queued in the kernel), so a congested path builds
+the FIFO up. Sequence numbers go to the frames the FIFO takes: a gap at the receiver is
+then a frame that went out and did not arrive, and ``p_hat`` means what it means for a
+poll.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import queue
+import threading
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+
+log = logging.getLogger(__name__)
+
+DEFAULT_CAPACITY = 64  # frames in the FIFO (the tracking demo's push baseline)
+CLOSE_WAIT = 2.0  # seconds for the sender thread to finish its frame on close
+Send = Callable[[bytes, float, int], None]  # payload, generated_at, seq
+
+
+class FrameFifo:
+    """``offer`` stamps a frame and queues it (False if the FIFO is full); a thread hands
+    queued frames, in order, to ``send(payload, generated_at, seq)``."""
+
+    def __init__(self, name: str, send: Send, capacity: int = DEFAULT_CAPACITY,
+                 clock: Callable[[], float] = time.time) -> None:
+        if capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {capacity}")
+        self.offered = 0
+        self.dropped = 0
+        self.sent = 0
+        self._seq = 0
+        self._send = send
+        self._clock = clock
+        self._lock = threading.Lock()  # stamps stay in order whoever offers
+        self._fifo: queue.Queue[tuple[bytes, float, int] | None] = queue.Queue(capacity)
+        self._thread = threading.Thread(target=self._run, name=f"push-{name}", daemon=True)
+        self._thread.start()
+
+    def offer(self, payload: bytes) -> bool:
+        with self._lock:
+            self.offered += 1
+            if self._fifo.full():
+                self.dropped += 1
+                return False
+            self._seq += 1
+            self._fifo.put_nowait((payload, self._clock(), self._seq))  # only we put
+        return True
+
+    def _run(self) -> None:
+        while (item := self._fifo.get()) is not None:
+            try:
+                self._send(*item)
+            except Exception:  # a transport error costs this frame, not the sender
+                log.exception("%s: a frame could not be sent", self._thread.name)
+                continue
+            self.sent += 1
+
+    def close(self) -> bool:
+        """Stop: frames still queued are dropped (a send blocked on a congested or dead
+        path must not hold the process); the sender thread gets CLOSE_WAIT to end.
+        Returns whether it did (if not, it ends once its send returns; call again)."""
+        with self._lock:
+            with contextlib.suppress(queue.Empty):
+                while True:
+                    self._fifo.get_nowait()
+            self._fifo.put_nowait(None)
+        self._thread.join(CLOSE_WAIT)
+        if self._thread.is_alive():
+            log.warning("%s: a send still blocked at close is left to end on its own",
+                        self._thread.name)
+            return False
+        return True
+
+
+class FifoSender(ABC):
+    """A FIFO of stamped frames in front of a transport: a subclass sends one frame
+    (``_send``) and lets go of the transport (``_release``)."""
+
+    def __init__(self, name: str, capacity: int, clock: Callable[[], float]) -> None:
+        self.fifo = FrameFifo(name, self._send, capacity, clock)
+
+    def offer(self, payload: bytes) -> bool:
+        """Queue a frame stamped now; False if the FIFO is full (the frame is dropped)."""
+        return self.fifo.offer(payload)
+
+    @abstractmethod
+    def _send(self, payload: bytes, generated_at: float, seq: int) -> None: ...
+
+    @abstractmethod
+    def _release(self) -> None: ...
+
+    def close(self) -> None:
+        self.fifo.close()
+        self._release()
