@@ -2,6 +2,7 @@
 
     wiswarm demo --uavs 4 --duration 30 --seed 0 --system wiswarm --out runs/x
     wiswarm demo --system push --rate 50            # the push baseline at 50 frames/s
+    wiswarm demo --channel 20mbit                   # the UAVs behind an emulated channel (root)
 """
 
 from __future__ import annotations
@@ -17,8 +18,11 @@ from apps.tracking.report import summarise, summary_lines, write_outputs
 from apps.tracking.uav_app import SYSTEMS
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
+from wiswarm_zenoh.cli.testbed import argument_type, require_testbed
 from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.testbed import ChannelSpec
+from wiswarm_zenoh.units import parse_rate, parse_seconds
 
 log = logging.getLogger(__name__)
 
@@ -46,6 +50,12 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the leader's polling policy (wiswarm)")
     parser.add_argument("--warmup", type=float, default=2.0,
                         help="seconds before the cars start, to settle (default 2)")
+    parser.add_argument("--channel", type=argument_type(parse_rate), metavar="RATE",
+                        help="put the UAVs behind an emulated shared channel of this rate "
+                        "each way, e.g. 20mbit (Linux, root: network namespaces and tc tbf; "
+                        "the UAVs are then Zenoh clients of the leader side's router)")
+    parser.add_argument("--channel-queue", type=argument_type(parse_seconds), default=0.2,
+                        metavar="TIME", help="the channel's queue (tbf latency, default 200ms)")
     parser.add_argument("--no-live", action="store_true", help="no live table")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
 
@@ -62,11 +72,13 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def options_from(args: argparse.Namespace) -> demo.DemoOptions:
     try:
+        channel = None if args.channel is None else ChannelSpec(
+            rate_bps=args.channel, queue_s=args.channel_queue)
         return demo.DemoOptions(
             uavs=args.uavs, duration_s=args.duration, seed=args.seed, system=args.system,
             rate_hz=args.rate, frame_px=args.frame_size, vehicle=args.vehicle,
             motion=args.motion, mode=args.mode, policy=args.policy, warmup_s=args.warmup,
-            live=not args.no_live,
+            live=not args.no_live, channel=channel,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -75,6 +87,8 @@ def options_from(args: argparse.Namespace) -> demo.DemoOptions:
 def run_demo(args: argparse.Namespace) -> int:
     """Run, print the summary, write the files; 1 if a UAV handed back nothing."""
     options = options_from(args)
+    if options.channel is not None:
+        require_testbed()
     out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
     if out.exists() and not out.is_dir():
         raise UsageError(f"--out {out} exists and is not a directory")

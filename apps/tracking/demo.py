@@ -37,6 +37,9 @@ from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import LeaderConfig
 from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.testbed import Channel, ChannelSpec
+from wiswarm_zenoh.testbed.netns import entered, run_in
+from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.transport import LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.report import LiveTable
@@ -69,6 +72,7 @@ class DemoOptions:
     warmup_s: float = 2.0
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -160,24 +164,57 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
             leader.close()
 
 
+@dataclass(frozen=True)
+class _Sides:
+    """Where the router, the UAVs and the leader run, and with which sessions."""
+
+    router: SessionSpec
+    uav: SessionSpec
+    leader: SessionSpec
+    leader_ns: str | None = None  # None: all on this host's loopback
+    uav_ns: str | None = None
+
+
+def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
+    """Loopback, or the two sides of an emulated channel built for this run."""
+    if options.channel is None:
+        port = free_tcp_port()
+        uav = SessionSpec.loopback(options.mode, connect_ports=[port])
+        return _Sides(SessionSpec.loopback("router", port), uav, uav)
+    channel = stack.enter_context(Channel(options.channel))
+    log.info("%s", channel.describe())
+    place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
+    return _Sides(place.router(), place.follower(), place.leader(), channel.leader_ns,
+                  channel.follower_ns)
+
+
+def _start(children: Children, name: str, ns: str | None, target: Callable[..., object],
+           *args: object, wait: bool = True) -> None:
+    if ns is None:
+        children.start(name, target, *args, wait=wait)
+    else:
+        children.start(name, run_in, ns, target, *args, wait=wait)
+
+
 def run(options: DemoOptions) -> DemoRun:
     """Run the demo and return its measurements (no files are written here)."""
     world = options.world_config()
-    port = free_tcp_port()
-    spec = SessionSpec.loopback(options.mode, connect_ports=[port])
     ctx = multiprocessing.get_context("spawn")
     with ExitStack() as stack:
+        sides = _sides(options, stack)
         children = stack.enter_context(Children(ctx))
-        children.start("router", run_router, SessionSpec.loopback("router", port))
+        _start(children, "router", sides.leader_ns, run_router, sides.router)
         links: dict[str, UavLink] = {}
         for index, uav in enumerate(options.uav_ids):
             mine, theirs = ctx.Pipe()
             links[uav] = UavLink(mine)
-            children.start(uav, run_uav, spec, options.uav_options(index), UavLink(theirs),
-                           wait=False)
+            _start(children, uav, sides.uav_ns, run_uav, sides.uav,
+                   options.uav_options(index), UavLink(theirs), wait=False)
         children.wait_ready()
 
-        session = stack.enter_context(spec.open())
+        if sides.leader_ns is not None:  # this thread opens the leader's session inside
+            stack.enter_context(entered(sides.leader_ns))
+        session = stack.enter_context(sides.leader.open())
         vision = VisionLoop({uav: i for i, uav in enumerate(options.uav_ids)},
                             world.arena, options.tracker, options.camera)
         reception = Reception(options.uav_ids, vision)

@@ -74,6 +74,9 @@ def summarise(run: DemoRun) -> dict[str, object]:
         "measured_s": run.measured_s, "seed": options.seed, "rate_hz": options.rate,
         "frame_px": options.frame_px, "vehicle": options.vehicle, "motion": options.motion,
         "policy": options.policy if options.system == "wiswarm" else None,
+        "channel": None if options.channel is None else {
+            "rate_bps": options.channel.rate_bps, "down_rate_bps": options.channel.down_bps,
+            "queue_s": options.channel.queue_s, "burst_bytes": options.channel.burst_bytes},
         "per_uav": per_uav,
         "average": average(per_uav.values()),
         "leader": {

@@ -27,6 +27,7 @@ from wiswarm_zenoh.units import format_rate
 STUDY_REGISTRARS: tuple[str, ...] = (
     "wiswarm_zenoh.cli.sim:register_sweep",
     "wiswarm_zenoh.cli.experiment:register_testbed",
+    "apps.tracking.study:register_tracking",
 )
 
 

@@ -20,7 +20,7 @@ from __future__ import annotations
 import logging
 import queue
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -33,6 +33,11 @@ log = logging.getLogger(__name__)
 
 BASELINES = tuple(s for s in SYSTEMS if s != "wiswarm")
 FRAME_OVERHEAD = 1.04  # headers per byte of frame on the wire (Zenoh, TCP/IP, Ethernet)
+
+
+def share_fps(rate_bps: float, n: int, frame_bytes: int) -> float:
+    """Frames per second per follower that a link of ``rate_bps`` carries for N."""
+    return rate_bps / (n * frame_bytes * 8 * FRAME_OVERHEAD)
 SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
 JOIN_PERIOD = 0.2  # seconds between checks that the workers ended
 
@@ -73,7 +78,7 @@ class StudyConfig:
 
     def share_fps(self, n: int) -> float:
         """Frames per second per follower that the uplink carries when N share it."""
-        return self.channel.rate_bps / (n * self.frame_bytes * 8 * FRAME_OVERHEAD)
+        return share_fps(self.channel.rate_bps, n, self.frame_bytes)
 
     @property
     def estimated_runs(self) -> int:
@@ -94,26 +99,33 @@ class Job:
     search: bool = False
 
 
-def best_rate(config: StudyConfig, job: Job, run: Measure) -> float:
-    """The grid rate with the lowest mean AoI for ``job``'s baseline at N (see module)."""
-    grid = sorted(config.rates)
-    share = config.share_fps(job.n)
-    start = max((i for i, r in enumerate(grid) if r <= share), default=0)
-    aoi: dict[int, float] = {}
+def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float]
+                 ) -> float:
+    """The rate of ``grid`` with the lowest ``cost`` on a unimodal curve: from the grid
+    rate just below ``share`` (where queues start to build), towards the better
+    neighbour until a rate is worse than the one before it. Each rate is measured once."""
+    rates = sorted(grid)
+    start = max((i for i, r in enumerate(rates) if r <= share), default=0)
+    costs: dict[int, float] = {}
 
-    def mean_aoi(i: int) -> float:
-        if i not in aoi:
-            outcome = run(config.spec(job.system, job.n, grid[i], job.batch))
-            aoi[i] = outcome.result.mean("mean_aoi_s")
-        return aoi[i]
+    def at(i: int) -> float:
+        if i not in costs:
+            costs[i] = cost(rates[i])
+        return costs[i]
 
     best = start
-    step = 1 if start + 1 < len(grid) and mean_aoi(start + 1) < mean_aoi(start) else -1
+    step = 1 if start + 1 < len(rates) and at(start + 1) < at(start) else -1
     if step == 1:
         best = start + 1
-    while 0 <= best + step < len(grid) and mean_aoi(best + step) < mean_aoi(best):
+    while 0 <= best + step < len(rates) and at(best + step) < at(best):
         best += step
-    return grid[best]
+    return rates[best]
+
+
+def best_rate(config: StudyConfig, job: Job, run: Measure) -> float:
+    """The grid rate with the lowest mean AoI for ``job``'s baseline at N (see module)."""
+    return best_of_grid(config.rates, config.share_fps(job.n), lambda rate: run(
+        config.spec(job.system, job.n, rate, job.batch)).result.mean("mean_aoi_s"))
 
 
 def plan(config: StudyConfig) -> Iterator[Job]:
