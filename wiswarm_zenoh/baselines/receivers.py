@@ -3,8 +3,10 @@ polling leader measures its deliveries (``tally.py``), on the same keys.
 
 Followers are known as the polling leader knows them, by their liveliness tokens (a
 baseline follower declares one too): AoI counts from the join, and a follower that
-leaves is forgotten (frames of it still on their way are ignored, until it joins
-again). A frame from a follower that never declared a token counts from its arrival.
+leaves is forgotten. A frame that arrives is delivered all the same, token or not: on a
+congested channel a follower's session may lose its router (its lease runs out behind
+the frames) while its frames still arrive, and those must count. A frame from a
+follower with no token counts from its arrival.
 The stats JSON go on ``wiswarm/<swarm>/<follower>/stats`` and ``.../leader/stats`` with
 the polling leader's fields, at its STATS_PERIOD, so every tool reads every system
 alike; the leader's ``policy`` names the system (push-block, push-drop, udp, tcp).
@@ -78,7 +80,6 @@ class Receiver:
         self._tallies: dict[str, FollowerTally] = {}
         self._errors: Counter[str] = Counter()
         self._sources: dict[str, str] = {}  # sender address -> follower, to blame garbage on
-        self._left: set[str] = set()  # followers whose token went: late frames are not news
         self._modes: set[str] = set()  # PUSH_LABELS of the push samples seen
         self._stats_lock = threading.Lock()  # publish_stats, between its callers
         self._publishers: dict[str, zenoh.Publisher] = {}
@@ -115,10 +116,8 @@ class Receiver:
             return
         with self._lock:
             if sample.kind == zenoh.SampleKind.PUT:
-                self._left.discard(follower)
                 self._tally(follower, now)
             else:
-                self._left.add(follower)
                 self._tallies.pop(follower, None)
                 self._errors.pop(follower, None)
         log.info("follower %s %s", follower,
@@ -173,8 +172,6 @@ class Receiver:
                       "baselines take one clock: synchronise the hosts)", frame.follower)
             return
         with self._lock:
-            if frame.follower in self._left:
-                return
             tally = self._tally(frame.follower, now)
             fresh = tally.take(frame.generated_at, frame.seq, len(frame.payload), now)
             if fresh and self._record is not None:

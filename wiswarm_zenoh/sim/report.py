@@ -4,6 +4,7 @@ paper's (Figs. 3-6), and a markdown table of WiSwarm's gains at N = 8 and N = 14
 from __future__ import annotations
 
 import csv
+import math
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -150,7 +151,8 @@ def gains_table(points: Sequence[Point], fixed_rate: float, ns: Sequence[int],
                 gains = [
                     base.mean["mean_aoi_s"] / ours.mean["mean_aoi_s"],
                     base.mean["p95_aoi_s"] / ours.mean["p95_aoi_s"],
-                    ours.mean["throughput_mbps"] / max(base.mean["throughput_mbps"], 1e-12),
+                    ours.mean["throughput_mbps"] / base.mean["throughput_mbps"]
+                    if base.mean["throughput_mbps"] > 0 else math.inf,
                 ]
                 paper = " / ".join(
                     PAPER_GAINS.get((n, f"{paper_system}-{kind}", m),
@@ -158,7 +160,8 @@ def gains_table(points: Sequence[Point], fixed_rate: float, ns: Sequence[int],
                     for m in ("mean_aoi_s", "p95_aoi_s", "throughput_mbps")
                 )
                 rate = f"{base.rate:g}" if base.rate is not None else "-"
-                cells = " | ".join(f"{g:.1f}x" for g in gains)
+                cells = " | ".join("none delivered" if math.isinf(g) else f"{g:.1f}x"
+                                   for g in gains)
                 lines.append(f"| {n} | {label} | {rate} | {cells} | {paper} |")
     return "\n".join(lines) + "\n"
 
