@@ -23,6 +23,16 @@ BASELINES = ("udp", "tcp")
 METRICS = ("mean_aoi_s", "p95_aoi_s", "peak_aoi_s", "throughput_fps", "throughput_mbps")
 
 
+def check_study(ns: tuple[int, ...], rates: tuple[float, ...], batches: int) -> None:
+    """What every study of N and rate needs (ValueError names the field)."""
+    if not ns or min(ns) < 1:
+        raise ValueError("ns must be a non-empty list of integers >= 1")
+    if not rates or min(rates) <= 0:
+        raise ValueError("rates must be a non-empty list of numbers > 0")
+    if batches < 1:
+        raise ValueError(f"batches must be >= 1, got {batches}")
+
+
 @dataclass(frozen=True)
 class SweepConfig:
     """What to sweep; validated on construction (ValueError)."""
@@ -36,12 +46,7 @@ class SweepConfig:
     frame_bytes: int = PAPER_FRAME_BYTES
 
     def __post_init__(self) -> None:
-        if not self.ns or min(self.ns) < 1:
-            raise ValueError("ns must be a non-empty list of integers >= 1")
-        if not self.rates or min(self.rates) <= 0:
-            raise ValueError("rates must be a non-empty list of numbers > 0")
-        if self.batches < 1:
-            raise ValueError(f"batches must be >= 1, got {self.batches}")
+        check_study(self.ns, self.rates, self.batches)
         self.plan()  # every scenario validates itself
 
     @property

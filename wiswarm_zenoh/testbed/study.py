@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES
+from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.testbed.channel import Channel, ChannelSpec
 from wiswarm_zenoh.testbed.run import SYSTEMS, RunOutcome, RunSpec, measure
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
@@ -58,15 +58,10 @@ class StudyConfig:
     parallel: int = 1
 
     def __post_init__(self) -> None:
-        if not self.ns or min(self.ns) < 1:
-            raise ValueError("ns must be a non-empty list of integers >= 1")
+        check_study(self.ns, self.rates, self.batches)
         unknown = sorted(set(self.baselines) - set(BASELINES))
         if unknown:
             raise ValueError(f"unknown baselines {unknown}: choose from {', '.join(BASELINES)}")
-        if not self.rates or min(self.rates) <= 0:
-            raise ValueError("rates must be a non-empty list of numbers > 0")
-        if self.batches < 1:
-            raise ValueError(f"batches must be >= 1, got {self.batches}")
         if self.parallel < 1:
             raise ValueError(f"parallel must be >= 1, got {self.parallel}")
         self.spec("wiswarm", self.ns[0], None, 0)  # the run's own checks

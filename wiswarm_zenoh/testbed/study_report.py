@@ -18,7 +18,6 @@ from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)
 
-MODEL_SECONDS = 60.0  # simulated seconds per model point
 MODEL_OF = {"udp": "udp", "tcp": "tcp", "push-block": "tcp"}  # baselines the model has
 
 
@@ -49,7 +48,9 @@ def summarise(config: StudyConfig, results: StudyResults) -> list[Point]:
 
 def model_points(config: StudyConfig, points: Sequence[Point]) -> list[Point]:
     """The simulator's ``link`` model of the channel, for WiSwarm and for the baselines
-    it models, at the rates that were measured (``-opt`` at the rate the search chose)."""
+    it models, at the rates that were measured (``-opt`` at the rate the search chose),
+    each run as long as a measured run (warm-up and window): a push baseline's queue,
+    and so its age, grows with the run's length."""
     link = LinkParams(rate_bps=config.channel.rate_bps, down_rate_bps=config.channel.down_bps,
                       queue_s=config.channel.queue_s, burst_bytes=config.channel.burst_bytes)
     modelled: list[Point] = []
@@ -60,8 +61,8 @@ def model_points(config: StudyConfig, points: Sequence[Point]) -> list[Point]:
             if p.n == n and system in MODEL_OF and p.rate is not None:
                 wanted[p.label] = (MODEL_OF[system], p.rate)
         keys = list(dict.fromkeys(wanted.values()))
-        runs = dict(zip(keys, link_curve([n], keys, link, config.frame_bytes, MODEL_SECONDS,
-                                         seed=0), strict=True))
+        runs = dict(zip(keys, link_curve([n], keys, link, config.frame_bytes,
+                                         config.warmup + config.duration, seed=0), strict=True))
         for label, key in wanted.items():
             result = runs.get(key)
             if result is not None:
