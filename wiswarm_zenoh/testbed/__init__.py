@@ -4,16 +4,18 @@ shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm'
 
 from wiswarm_zenoh.testbed.channel import (
     Channel,
+    cleanup_leftovers,
+    list_channels,
+    remove_channel,
+)
+from wiswarm_zenoh.testbed.netns import enter, run_in
+from wiswarm_zenoh.testbed.spec import (
     ChannelSpec,
     LinkCounters,
     TestbedUnavailable,
     check_available,
-    cleanup_leftovers,
-    list_channels,
-    remove_channel,
     unavailable_reason,
 )
-from wiswarm_zenoh.testbed.netns import enter, run_in
 
 __all__ = [
     "Channel",

@@ -18,19 +18,23 @@ import fcntl
 import itertools
 import json
 import logging
-import math
 import os
 import re
-import shutil
-import subprocess
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from types import TracebackType
-from typing import Any
 
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
-from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
+from wiswarm_zenoh.testbed.spec import (
+    DEFAULT_SPEC,
+    MTU,
+    ChannelSpec,
+    LinkCounters,
+    check_available,
+)
+from wiswarm_zenoh.testbed.tc import counters, run, run_json, spec_from_tc, tbf_args, tbf_qdisc
+from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)
 
@@ -41,96 +45,10 @@ FOLLOWER_SUFFIX = "-F"
 LEADER_IF = "wsw-L"
 FOLLOWER_IF = "wsw-F"
 STATE_DIR = Path("/run/wiswarm-testbed")
-MTU = 1500
-MAX_FRAME_BYTES = MTU + 14  # what tbf sees of a full-size packet: the Ethernet header too
 SUBNETS = range(1, 255)  # channel k: leader 10.201.k.1, follower 10.201.k.2 (/24)
-_U32 = 2**32 - 1
-_TICK_S = 64e-9  # tbf keeps its bucket as a u32 count of 64 ns ticks
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,23}$")
 _counter = itertools.count()
 
-SIM_HINT = "use `wiswarm sim link`, the simulator's model of the same link"
-
-
-class TestbedUnavailable(Exception):
-    """Namespaces and qdiscs cannot be built here (not root, or ``ip``/``tc`` missing)."""
-
-    __test__ = False  # not a pytest test class, despite its name
-
-
-def unavailable_reason(euid: int, which: Callable[[str], str | None]) -> str | None:
-    """Why the testbed cannot run for this user and these tools, or None if it can."""
-    if euid != 0:
-        return ("the emulated channel needs root (it builds network namespaces and tc "
-                f"qdiscs): run it as root, or {SIM_HINT}")
-    missing = [f"`{tool}`" for tool in ("ip", "tc") if which(tool) is None]
-    if missing:
-        return (f"{' and '.join(missing)} not found: the emulated channel needs iproute2 "
-                f"(ip, tc); install it, or {SIM_HINT}")
-    return None
-
-
-def check_available() -> None:
-    """Raise TestbedUnavailable, saying which requirement is missing."""
-    reason = unavailable_reason(os.geteuid(), shutil.which)
-    if reason is not None:
-        raise TestbedUnavailable(reason)
-
-
-@dataclass(frozen=True)
-class ChannelSpec:
-    """Rates (bits/s) of both directions, the tbf queue limit (seconds) and burst."""
-
-    rate_bps: int = 20_000_000
-    queue_s: float = 0.2
-    down_rate_bps: int | None = None
-    burst_bytes: int = 32 * 1024
-
-    def __post_init__(self) -> None:
-        for name in ("rate_bps", "down_rate_bps"):
-            value = getattr(self, name)
-            if value is None and name == "down_rate_bps":
-                continue
-            if not (isinstance(value, int) and not isinstance(value, bool)
-                    and MIN_RATE_BPS <= value <= MAX_RATE_BPS):
-                raise ValueError(f"{name} must be a whole number of bits/s between "
-                                 f"{format_rate(MIN_RATE_BPS)} and "
-                                 f"{format_rate(MAX_RATE_BPS)}, got {value!r}")
-        slowest, fastest = sorted((self.rate_bps, self.down_bps))
-        if not (isinstance(self.queue_s, int | float) and math.isfinite(self.queue_s)
-                and self.queue_s > 0):
-            raise ValueError(f"queue_s must be > 0 seconds, got {self.queue_s!r}")
-        # tc rounds the bucket to whole microseconds at the rate: keep a full frame in it,
-        # or tbf drops every full-size packet.
-        least = MAX_FRAME_BYTES + math.ceil(fastest / 8e6) + 1
-        if not (isinstance(self.burst_bytes, int) and self.burst_bytes >= least):
-            raise ValueError(f"burst_bytes must be a whole number >= {least} (one {MTU}-byte "
-                             f"MTU packet at {format_rate(fastest)}), got {self.burst_bytes!r}")
-        if self.burst_bytes * 8 / slowest > _U32 * _TICK_S:
-            raise ValueError(f"burst_bytes {self.burst_bytes} lasts more than "
-                             f"{_U32 * _TICK_S:.0f} s at {format_rate(slowest)}, tbf's limit")
-        if fastest / 8 * self.queue_s + self.burst_bytes > _U32:
-            raise ValueError(f"queue_s {self.queue_s:g} s at {format_rate(fastest)} would "
-                             "hold more than 4 GB, tbf's limit")
-
-    @property
-    def down_bps(self) -> int:
-        """The leader -> followers rate (the uplink's unless set)."""
-        return self.rate_bps if self.down_rate_bps is None else self.down_rate_bps
-
-
-DEFAULT_SPEC = ChannelSpec()
-
-
-@dataclass(frozen=True)
-class LinkCounters:
-    """One direction's tbf statistics (``tc -s qdisc``), cumulative since the build."""
-
-    sent_bytes: int
-    sent_packets: int
-    dropped: int
-    overlimits: int
-    backlog_bytes: int
 
 
 @dataclass(frozen=True)
@@ -189,44 +107,12 @@ def _locked() -> Iterator[None]:
         yield
 
 
-def _run(*argv: str) -> str:
-    """Run ``ip``/``tc``; RuntimeError with its stderr if it fails. In a session of its
-    own: a Ctrl-C at the terminal reaches the whole process group, and must not kill the
-    commands that remove a channel while a run winds down."""
-    done = subprocess.run(argv, capture_output=True, text=True, check=False,
-                          start_new_session=True)
-    if done.returncode != 0:
-        raise RuntimeError(f"`{' '.join(argv)}` failed (exit {done.returncode}): "
-                           f"{done.stderr.strip() or 'no message'}")
-    if done.stderr.strip():
-        log.warning("`%s`: %s", " ".join(argv), done.stderr.strip())
-    return done.stdout
-
-
-def _json(*argv: str) -> list[dict[str, Any]]:
-    result: list[dict[str, Any]] = json.loads(_run(*argv) or "[]")
-    return result
-
-
 def _links(ns: str) -> set[str]:
-    return {link["ifname"] for link in _json("ip", "-n", ns, "-j", "link", "show")}
+    return {link["ifname"] for link in run_json("ip", "-n", ns, "-j", "link", "show")}
 
 
 def _ns_exists(ns: str) -> bool:
     return (NETNS_DIR / ns).exists()
-
-
-def _tbf(ns: str, ifname: str) -> dict[str, Any]:
-    """The root tbf qdisc of ``ifname`` as ``tc -s -j`` reports it."""
-    for qdisc in _json("tc", "-n", ns, "-s", "-j", "qdisc", "show", "dev", ifname):
-        if qdisc.get("kind") == "tbf" and qdisc.get("root"):
-            return qdisc
-    raise RuntimeError(f"no tbf qdisc on {ifname} in namespace {ns}")
-
-
-def _tbf_args(rate_bps: int, spec: ChannelSpec) -> tuple[str, ...]:
-    return ("tbf", "rate", f"{rate_bps}bit", "burst", str(spec.burst_bytes),
-            "latency", f"{round(spec.queue_s * 1e6)}us")
 
 
 def _process_start(pid: int) -> int | None:
@@ -262,11 +148,11 @@ def _remove_locked(run_id: str) -> bool:
     present = [(ns, ifname) for ns, ifname in pairs if _ns_exists(ns)]
     for ns, ifname in present:
         if ifname in _links(ns):
-            _run("ip", "-n", ns, "link", "del", "dev", ifname)  # takes its peer along
+            run("ip", "-n", ns, "link", "del", "dev", ifname)  # takes its peer along
     for ns, ifname in present:
         if ifname in _links(ns):
             raise RuntimeError(f"{ifname} is still in namespace {ns} after deleting it")
-        _run("ip", "netns", "del", ns)
+        run("ip", "netns", "del", ns)
     left = [ns for ns, _ in pairs if _ns_exists(ns)]
     if left:
         raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
@@ -303,35 +189,6 @@ def cleanup_leftovers() -> list[str]:
     """Remove channels whose creating process is gone; returns their run ids."""
     with _locked():
         return _cleanup_locked()
-
-
-def _prefer(measured: float, recorded: float, slack: float) -> float:
-    """The recorded value where tc's reading differs from it by its rounding only."""
-    return recorded if abs(measured - recorded) <= slack else measured
-
-
-def _spec_from_tc(up: dict[str, Any], down: dict[str, Any],
-                  recorded: ChannelSpec | None) -> ChannelSpec:
-    """The spec tc reports (bytes/s and microseconds), in the record's exact values where
-    only tc's rounding differs, so that a spec read back equals the one set."""
-    rate, down_rate = up["rate"] * 8, down["rate"] * 8
-    burst, queue = up["burst"], up["lat"] / 1e6
-    if recorded is not None:
-        rate = int(_prefer(rate, recorded.rate_bps, 8))
-        down_rate = int(_prefer(down_rate, recorded.down_bps, 8))
-        burst = int(_prefer(burst, recorded.burst_bytes,
-                            max(rate, down_rate) / 8 * 2e-6 + 0.01 * recorded.burst_bytes))
-        queue = _prefer(queue, recorded.queue_s, 0.01 * recorded.queue_s + 2e-6)
-        if (rate, down_rate) == (recorded.rate_bps, recorded.down_bps):
-            return replace(recorded, burst_bytes=burst, queue_s=queue)
-    return ChannelSpec(rate, queue, None if down_rate == rate else down_rate, burst)
-
-
-def _counters(ns: str, ifname: str) -> LinkCounters:
-    tbf = _tbf(ns, ifname)
-    return LinkCounters(sent_bytes=tbf["bytes"], sent_packets=tbf["packets"],
-                        dropped=tbf["drops"], overlimits=tbf["overlimits"],
-                        backlog_bytes=tbf["backlog"])
 
 
 class Channel:
@@ -419,20 +276,20 @@ class Channel:
         ends = ((self.leader_ns, LEADER_IF, self.leader_addr, self.spec.down_bps),
                 (self.follower_ns, FOLLOWER_IF, self.follower_addr, self.spec.rate_bps))
         for ns, *_ in ends:
-            _run("ip", "netns", "add", ns)
-        _run("ip", "-n", self.leader_ns, "link", "add", LEADER_IF, "type", "veth",
+            run("ip", "netns", "add", ns)
+        run("ip", "-n", self.leader_ns, "link", "add", LEADER_IF, "type", "veth",
              "peer", "name", FOLLOWER_IF, "netns", self.follower_ns)
         for ns, ifname, addr, rate in ends:
             # One MTU-sized packet per skb: without this, TCP hands tbf 64 kB GSO
             # super-packets, which leave as bursts far above the rate. No IPv6 link-local
             # address: its neighbour discovery would be traffic nobody asked for.
-            _run("ip", "-n", ns, "link", "set", "dev", ifname, "mtu", str(MTU),
+            run("ip", "-n", ns, "link", "set", "dev", ifname, "mtu", str(MTU),
                  "gso_max_size", str(MTU), "gso_max_segs", "1", "addrgenmode", "none")
-            _run("ip", "-n", ns, "addr", "add", f"{addr}/24", "dev", ifname)
-            _run("tc", "-n", ns, "qdisc", "replace", "dev", ifname, "root",
-                 *_tbf_args(rate, self.spec))
-            _run("ip", "-n", ns, "link", "set", "dev", "lo", "up")
-            _run("ip", "-n", ns, "link", "set", "dev", ifname, "up")
+            run("ip", "-n", ns, "addr", "add", f"{addr}/24", "dev", ifname)
+            run("tc", "-n", ns, "qdisc", "replace", "dev", ifname, "root",
+                 *tbf_args(rate, self.spec))
+            run("ip", "-n", ns, "link", "set", "dev", "lo", "up")
+            run("ip", "-n", ns, "link", "set", "dev", ifname, "up")
 
     def close(self) -> None:
         """Remove the channel (veth and qdiscs, namespaces, record); safe to repeat."""
@@ -456,8 +313,8 @@ class Channel:
                 (self.follower_ns, FOLLOWER_IF, self.spec.rate_bps, spec.rate_bps),
                 (self.leader_ns, LEADER_IF, self.spec.down_bps, spec.down_bps)):
             if new != old:
-                _run("tc", "-n", ns, "qdisc", "change", "dev", ifname, "root",
-                     *_tbf_args(new, spec))
+                run("tc", "-n", ns, "qdisc", "change", "dev", ifname, "root",
+                     *tbf_args(new, spec))
         self.spec = spec
         with _locked():
             record = _Record.load(self.run_id)
@@ -469,12 +326,12 @@ class Channel:
     def uplink(self) -> LinkCounters:
         """The followers -> leader direction (the follower side's tbf)."""
         self._require_built()
-        return _counters(self.follower_ns, FOLLOWER_IF)
+        return counters(self.follower_ns, FOLLOWER_IF)
 
     def downlink(self) -> LinkCounters:
         """The leader -> followers direction (the leader side's tbf)."""
         self._require_built()
-        return _counters(self.leader_ns, LEADER_IF)
+        return counters(self.leader_ns, LEADER_IF)
 
     def describe(self) -> str:
         """What the channel is and who runs where, for people."""
@@ -503,8 +360,8 @@ class Channel:
         if not (_ns_exists(leader_ns) and _ns_exists(follower_ns)):
             raise LookupError(f"no testbed channel {run_id!r}")
         record = _Record.load(run_id)
-        up, down = _tbf(follower_ns, FOLLOWER_IF), _tbf(leader_ns, LEADER_IF)
-        channel = cls(_spec_from_tc(up["options"], down["options"],
+        up, down = tbf_qdisc(follower_ns, FOLLOWER_IF), tbf_qdisc(leader_ns, LEADER_IF)
+        channel = cls(spec_from_tc(up["options"], down["options"],
                                     None if record is None else record.spec))
         if record is not None:
             channel._place(run_id, record.subnet)
@@ -519,7 +376,7 @@ class Channel:
 
 
 def _address(ns: str, ifname: str) -> str:
-    for link in _json("ip", "-n", ns, "-4", "-j", "addr", "show", "dev", ifname):
+    for link in run_json("ip", "-n", ns, "-4", "-j", "addr", "show", "dev", ifname):
         for info in link.get("addr_info", []):
             return str(info["local"])
     raise RuntimeError(f"{ifname} in namespace {ns} has no IPv4 address")

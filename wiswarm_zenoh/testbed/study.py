@@ -25,8 +25,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
-from wiswarm_zenoh.testbed.channel import Channel, ChannelSpec
+from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import SYSTEMS, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.spec import ChannelSpec
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
 log = logging.getLogger(__name__)
