@@ -78,14 +78,17 @@ def test_peak_remembers_the_highest_tooth() -> None:
     assert aoi.peak(30.0) == pytest.approx(19.5)  # the open tooth overtakes it
 
 
-def test_time_stamp_ahead_of_now_sets_age_zero_and_older_ones_stay_older() -> None:
-    """A follower clock estimated slightly ahead gives a time-stamp in the future: the age
-    is 0 (never negative), and an update stamped before it is still not newer."""
+def test_time_stamp_ahead_of_now_counts_as_now_and_cannot_hold_back_later_updates() -> None:
+    """A stamp ahead of the delivery time (a follower clock estimated slightly ahead, or a
+    forgery) gives age 0, never negative; it counts as generated at delivery, so an update
+    stamped before that is not newer, and one generated after it is delivered."""
     aoi = AoITracker(0.0)
-    assert aoi.deliver(5.0, 4.0)
+    assert aoi.deliver(3600.0, 4.0)
     assert aoi.age(4.0) == 0.0
-    assert not aoi.deliver(4.5, 4.2)
-    assert aoi.deliveries == 1
+    assert not aoi.deliver(3.9, 4.2)
+    assert aoi.deliver(4.1, 4.2)
+    assert aoi.age(4.5) == pytest.approx(0.4)
+    assert aoi.deliveries == 2
 
 
 def test_statistics_at_the_start() -> None:

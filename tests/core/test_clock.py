@@ -104,3 +104,26 @@ def test_an_offset_beyond_half_the_delay_is_still_corrected() -> None:
     est = ClockOffsetEstimator()
     est.add(10.0, 10.0101, 10.0102, 10.0003)  # clock 10 ms ahead, 0.1 ms each way
     assert est.offset == pytest.approx(0.010)
+
+
+def test_stamps_no_clock_gives_are_judged_and_leave_the_estimate_alone() -> None:
+    est = ClockOffsetEstimator(samples=3)
+    assert est.judge(10.0, 10.0101, 10.0102, 10.0003) is None  # nothing known: any clock
+    est.add(10.0, 10.0101, 10.0102, 10.0003)
+    assert "out of order" in str(est.judge(11.0, 11.02, 11.0, 11.001))  # sent before received
+    assert "off this follower's clock" in str(est.judge(11.0, 3611.0, 3611.0, 11.001))
+    assert est.judge(11.0, 11.0102, 11.0103, 11.0004) is None  # the same clock, 10 ms ahead
+    assert est.offset == pytest.approx(0.010)
+
+
+def test_a_clock_that_really_stepped_is_taken_after_samples_refused_polls() -> None:
+    est = ClockOffsetEstimator(samples=3)
+    est.add(10.0, 10.0001, 10.0002, 10.0003)
+    stepped = (11.0, 3611.0001, 3611.0002, 11.0003)  # the follower's clock jumped an hour
+    for _ in range(2):
+        assert est.judge(*stepped) is not None
+        est.refused()
+    assert est.judge(*stepped) is None  # the third poll in a row: re-anchor
+    est.add(*stepped)
+    assert est.offset == pytest.approx(3600.0)
+    assert est.refused_in_a_row == 0

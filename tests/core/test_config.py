@@ -54,6 +54,9 @@ def test_leader_config_names_the_bad_field(field: str, value: Any, allowed: str)
     ("max_update_bytes", 0, ">= 1"),
     ("abandon_after", -1.0, ">= 0"),
     ("abandon_after", math.nan, ">= 0"),
+    ("control_window", 0.0, "> 0 seconds"),
+    ("control_window", math.inf, "> 0 seconds"),
+    ("poller_expiry", math.nan, "> 0 seconds"),
 ])
 def test_follower_config_names_the_bad_field(field: str, value: Any, allowed: str) -> None:
     with pytest.raises(ValueError, match=field) as info:

@@ -104,21 +104,21 @@ def test_damaged_messages_are_never_read_otherwise_than_by_the_strict_decoder(
 
 
 @pytest.mark.parametrize("poll", [Poll(0, 0.0, None), Poll(MAX_INT, -1.5, (MAX_INT, UINT32),
-                                                          "fresh")])
+                                                          "fresh", MAX_INT)])
 def test_the_fast_path_reads_what_the_leader_sends(poll: Poll) -> None:
     assert unpack_poll(encode_poll(poll)) == poll
 
 
 def test_the_shortest_msgpack_encoding_goes_through_the_general_decoder() -> None:
     """A follower written in another language packs the same maps its own way."""
-    poll = {"v": 1, "t": "poll", "seq": 5, "lt": 2.5, "ack": [3, 0], "want": "next"}
-    reply = {"v": 1, "t": "reply", "from": "uav1", "poll": 5, "rt": 1.0, "st": 1.5,
+    poll = {"v": 2, "t": "poll", "seq": 5, "lt": 2.5, "e": 9, "ack": [3, 0], "want": "next"}
+    reply = {"v": 2, "t": "reply", "from": "uav1", "poll": 5, "rt": 1.0, "st": 1.5,
              "frag": {"u": 3, "g": 0.5, "i": 0, "n": 1, "size": 3, "crc": 7, "data": b"abc"}}
     poll_bytes = msgpack.packb(poll, use_bin_type=True)
     reply_bytes = msgpack.packb(reply, use_bin_type=True)
     assert unpack_poll(poll_bytes) is None
     assert unpack_reply(reply_bytes) is None
-    assert decode_poll(poll_bytes) == Poll(5, 2.5, (3, 0), "next")
+    assert decode_poll(poll_bytes) == Poll(5, 2.5, (3, 0), "next", 9)
     assert decode_reply(reply_bytes) == Reply(
         "uav1", 5, 1.0, 1.5, FragmentData(3, 0.5, 0, 1, 3, 7, b"abc"))
 

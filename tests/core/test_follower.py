@@ -167,21 +167,22 @@ def test_garbage_poll_raises_wire_error_and_is_not_counted(garbage: bytes) -> No
 def test_control_newer_wins_and_a_restarted_leader_is_obeyed() -> None:
     f = Follower("f")
     wp = [(1.0, 2.0, 3.0, 4.0)]
-    assert f.on_control(encode_control(Control(5, 10.0, {"f": wp, "g": []}))) == wp
-    assert f.on_control(encode_control(Control(5, 10.0, {"f": wp}))) is None  # duplicate
-    assert f.on_control(encode_control(Control(4, 10.0, {"f": [(0, 0, 0, 0)]}))) is None
-    assert f.on_control(encode_control(Control(9, 9.0, {"f": [(0, 0, 0, 0)]}))) is None
+    assert f.on_control(encode_control(Control(5, 10.0, {"f": wp, "g": []}, 7)), 10.0) == wp
+    assert f.on_control(encode_control(Control(5, 10.0, {"f": wp}, 7)), 10.0) is None  # again
+    assert f.on_control(encode_control(Control(4, 10.0, {"f": [(0, 0, 0, 0)]}, 7)), 10.0) is None
+    assert f.on_control(encode_control(Control(9, 9.5, {"f": [(0, 0, 0, 0)]}, 7)), 10.0) is None
     later = [(2.0, 0.0, 0.0, 1.0)]
-    assert f.on_control(encode_control(Control(6, 10.0, {"f": later}))) == later
-    restarted = [(3.0, 1.0, 1.0, 1.0)]  # new leader: seq back at 1, later leader time
-    assert f.on_control(encode_control(Control(1, 20.0, {"f": restarted}))) == restarted
+    assert f.on_control(encode_control(Control(6, 10.0, {"f": later}, 7)), 10.0) == later
+    restarted = [(3.0, 1.0, 1.0, 1.0)]  # new leader: seq back at 1, a new epoch
+    assert f.on_control(encode_control(Control(1, 9.9, {"f": restarted}, 8)), 10.0) == restarted
+    assert f.control.stale == 3
 
 
 def test_control_without_an_entry_for_this_follower() -> None:
     f = Follower("f")
-    assert f.on_control(encode_control(Control(1, 1.0, {"g": [(0, 0, 0, 0)]}))) is None
+    assert f.on_control(encode_control(Control(1, 1.0, {"g": [(0, 0, 0, 0)]})), 1.0) is None
     with pytest.raises(WireError):
-        f.on_control(encode_poll(Poll(1, 1.0, None)))
+        f.on_control(encode_poll(Poll(1, 1.0, None)), 1.0)
 
 
 @pytest.mark.parametrize("follower_id", ["f", "x" * 128, "x" * 129, "ü" * 128, "🛸" * 128],

@@ -20,7 +20,7 @@ from wiswarm_zenoh.core import (
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fragments import checksum
-from wiswarm_zenoh.core.wire import FragmentData, Reply, decode_control, encode_reply
+from wiswarm_zenoh.core.wire import FragmentData, Reply, encode_reply
 
 from .drive import answer, exchange, poll, poll_message
 
@@ -122,17 +122,43 @@ def test_timeout_lowers_p_hat_and_finish_poll_ends_a_poll() -> None:
     assert leader.stats("a", 2.1).timeouts == 2
 
 
-def test_reply_after_the_timeout_is_stale() -> None:
+def test_reply_after_the_timeout_is_stale_and_lengthens_the_next_timeout() -> None:
     leader, followers = _setup("a")
     followers["a"].offer(b"x", 0.0)
+    first = poll(leader, 0.0)  # a quick answer: the timeout shrinks to the floor
+    leader.on_reply("a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
     request = poll(leader, 1.0)
+    assert request.deadline == pytest.approx(1.0 + leader.config.timeout_floor)
     raw = followers["a"].on_poll(request.payload, 1.1, 1.1)
     leader.on_timer(request.deadline)
     before = _aoi(leader, "a", 2.0)
-    assert leader.on_reply("a", raw, 1.5) == [Stale("a", "reply to poll 1, not the one in flight")]
+    assert leader.on_reply("a", raw, 1.5) == []  # late, not bad: nothing to report
     assert _aoi(leader, "a", 2.0) == before
     assert leader.stats("a", 2.0).stale == 1
+    # twice the late one, up to the ceiling
+    assert poll(leader, 2.0).deadline == pytest.approx(2.0 + min(2 * 0.5, leader.config.timeout))
+    again = followers["a"].on_poll(request.payload, 2.1, 2.1)  # the same late reply again
+    assert leader.on_reply("a", again, 2.2) == [Stale("a", "reply to poll 2, not the one "
+                                                          "in flight")]
 
+
+
+def test_a_late_reply_to_an_earlier_timed_out_poll_still_lengthens_the_timeout() -> None:
+    """On a link slower than measured the leader polls again at each timeout, and the
+    replies queue behind each other: the first late reply answers the first of those
+    polls, not the last."""
+    leader, followers = _setup("a")
+    followers["a"].offer(b"x", 0.0)
+    first = poll(leader, 0.0)
+    leader.on_reply("a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
+    sent = []
+    for k in range(3):
+        request = poll(leader, 1.0 + k)
+        sent.append(request)
+        leader.on_timer(request.deadline)
+    raw = followers["a"].on_poll(sent[0].payload, 1.2, 1.2)
+    assert leader.on_reply("a", raw, 3.3) == []  # late, not bad: nothing to report
+    assert poll(leader, 4.0).deadline == pytest.approx(4.0 + leader.config.timeout)
 
 def test_duplicate_reply_is_stale() -> None:
     leader, followers = _setup("a")
@@ -351,41 +377,6 @@ def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
     answer(leader, followers, request, t)
     assert leader.stats("dead", t + 0.01).p_hat == 0.5
     assert leader.stats("dead", t + 0.01).deliveries == 1
-
-
-def test_control_is_broadcast_with_every_poll() -> None:
-    leader, followers = _setup("a", "b")
-    wps = [(1.0, 2.0, 3.0, 4.0)]
-    leader.set_control("a", wps)
-    first = poll(leader, 1.0)
-    control = decode_control(first.control)
-    assert control.entries == {"a": wps}
-    assert control.leader_time == 1.0
-    assert followers["a"].on_control(first.control) == wps
-    assert followers["b"].on_control(first.control) is None
-    leader.finish_poll(1.1)
-    second = poll(leader, 1.2)
-    assert decode_control(second.control).seq > control.seq
-    assert followers["a"].on_control(first.control) is None  # older: ignored
-    assert followers["a"].on_control(second.control) == wps
-    with pytest.raises(ValueError, match="unknown follower"):
-        leader.set_control("zz", wps)
-    with pytest.raises(ValueError):
-        leader.set_control("a", [(0.0, 0.0, 0.0)])
-
-
-def test_restarted_leader_is_still_obeyed() -> None:
-    leader, followers = _setup("a")
-    leader.set_control("a", [(1.0, 0.0, 0.0, 0.0)])
-    for k in range(5):
-        followers["a"].on_control(poll(leader, float(k)).control)
-        leader.finish_poll(k + 0.1)
-    fresh_leader = Leader()
-    fresh_leader.add_follower("a", 10.0)
-    fresh_leader.set_control("a", [(9.0, 9.0, 9.0, 9.0)])
-    request = poll(fresh_leader, 10.0)
-    assert decode_control(request.control).seq == 1
-    assert followers["a"].on_control(request.control) == [(9.0, 9.0, 9.0, 9.0)]
 
 
 def test_first_update_generated_before_the_follower_was_added_is_delivered() -> None:

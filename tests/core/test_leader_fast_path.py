@@ -140,11 +140,12 @@ def test_a_checksum_failure_found_at_settle_is_rejected() -> None:
     assert leader.stats(request.follower, 0.012).deliveries == 0
 
 
-def _declines(leader: Leader, request: PollRequest, raw: bytes, follower: str = "") -> None:
+def _declines(leader: Leader, request: PollRequest, raw: bytes, follower: str = "",
+              now: float = 0.012) -> None:
     """reply_and_poll says None and leaves the poll in flight for the usual path."""
-    assert leader.reply_and_poll(follower or request.follower, raw, 0.012) is None
+    assert leader.reply_and_poll(follower or request.follower, raw, now) is None
     assert leader.in_flight == request.follower
-    leader.accept_reply(request.follower, raw, 0.012)
+    leader.accept_reply(request.follower, raw, now)
     assert leader.in_flight is None
 
 
@@ -200,4 +201,4 @@ def test_a_follower_whose_answer_leaves_it_oldest_keeps_its_turn() -> None:
     # Its update is older than anything the leader has seen (a backlog): still first.
     old = FragmentData(1, -100.0, 0, 1, len(FRAME), 0, FRAME)
     raw = encode_reply(Reply(request.follower, request.poll_seq, 10.001, 10.001, old))
-    _declines(leader, request, raw)
+    _declines(leader, request, raw, now=10.002)

@@ -12,6 +12,7 @@ import msgpack
 import pytest
 
 from wiswarm_zenoh.core import WireError
+from wiswarm_zenoh.core.messages import VERSION
 from wiswarm_zenoh.core.wire import (
     MAX_ID_BYTES,
     MAX_WAYPOINTS,
@@ -73,7 +74,7 @@ def test_integer_coordinates_are_accepted_as_floats() -> None:
 
 def test_messages_are_versioned_and_typed() -> None:
     for raw in (encode_poll(POLL), encode_reply(REPLY), encode_control(CONTROL)):
-        assert _map(raw)["v"] == 1
+        assert _map(raw)["v"] == VERSION
     with pytest.raises(WireError, match="poll"):
         decode_poll(encode_reply(REPLY))
     with pytest.raises(WireError):
@@ -100,7 +101,7 @@ def _with_version(base: bytes, version: object) -> bytes:
 
 
 @pytest.mark.parametrize(("decode", "base"), BASES, ids=["poll", "reply", "control"])
-@pytest.mark.parametrize("version", [None, 0, 2, "1", [1]])
+@pytest.mark.parametrize("version", [None, 0, 1, VERSION + 1, str(VERSION), [VERSION]])
 def test_wrong_version_is_rejected(decode: Decoder, base: bytes, version: object) -> None:
     with pytest.raises(WireError):
         decode(_with_version(base, version))

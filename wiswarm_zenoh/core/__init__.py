@@ -7,7 +7,15 @@ over Zenoh in real time and inside the simulator in virtual time.
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
-from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
+from wiswarm_zenoh.core.events import (
+    Answering,
+    Delivered,
+    Event,
+    Rejected,
+    Silent,
+    Stale,
+    TimedOut,
+)
 from wiswarm_zenoh.core.follower import Follower
 from wiswarm_zenoh.core.leader import FollowerStats, Leader, PollRequest
 from wiswarm_zenoh.core.policies import POLICIES, Policy, make_policy
@@ -15,6 +23,7 @@ from wiswarm_zenoh.core.wire import Waypoint
 
 __all__ = [
     "POLICIES",
+    "Answering",
     "AoITracker",
     "Delivered",
     "Event",
@@ -26,6 +35,7 @@ __all__ = [
     "Policy",
     "PollRequest",
     "Rejected",
+    "Silent",
     "Stale",
     "TimedOut",
     "Waypoint",

@@ -18,7 +18,8 @@ class AoITracker:
     far that old); an
     update generated earlier is still delivered, it just cannot make the age negative
     or lower it below zero. Freshness is judged on the time-stamps themselves
-    (``newest``), so a stamp ahead of ``now`` cannot let an older one pass. The
+    (``newest``), taken no later than their delivery, so a stamp ahead of ``now``
+    neither lets an older one pass nor holds back the genuine ones that follow. The
     time average and the peak are exact (areas and maxima of the sawtooth); percentiles
     come from an ``AgeHistogram`` of the sawtooth, within 0.5 %, in bounded memory.
     """
@@ -43,7 +44,9 @@ class AoITracker:
         """Record an update generated at ``timestamp``; only a newer one lowers the age."""
         if timestamp <= self.newest:
             return False
-        self.newest = timestamp
+        # Never newer than ``now``: a stamp ahead of the clock must not make genuine
+        # updates generated before it look old afterwards.
+        self.newest = min(timestamp, now)
         # close the sawtooth segment that ends now
         last = self._last_event
         length = max(0.0, now - last)

@@ -27,7 +27,10 @@ class FollowerConfig:
 
     ``abandon_after``: a half-sent update is dropped for a fresher waiting one when none
     of its fragments has been acknowledged yet, or when the waiting one is newer by more
-    than this many seconds.
+    than this many seconds. ``control_window``: how far (seconds) a control message's
+    leader time may be from that leader's clock (see ``control_gate``).
+    ``poller_expiry``: after this many seconds without a poll, a leader no longer keeps
+    the queue from a poller of a lower epoch (see ``pollers``).
     """
 
     queue: QueueKind = "lifo"
@@ -37,6 +40,8 @@ class FollowerConfig:
     fragment_size: int = 65536
     max_update_bytes: int = DEFAULT_MAX_UPDATE_BYTES
     abandon_after: float = 1.0
+    control_window: float = 1.0
+    poller_expiry: float = 2.0
 
     def __post_init__(self) -> None:
         _require(self.queue in ("lifo", "fifo"), "queue", "'lifo' or 'fifo'", self.queue)
@@ -56,6 +61,9 @@ class FollowerConfig:
             self.abandon_after >= 0 and not math.isnan(self.abandon_after),
             "abandon_after", ">= 0 seconds", self.abandon_after,
         )
+        for name in ("control_window", "poller_expiry"):
+            value = getattr(self, name)
+            _require(math.isfinite(value) and value > 0, name, "> 0 seconds", value)
 
 
 @dataclass(frozen=True)
@@ -70,6 +78,11 @@ class LeaderConfig:
     and it rejoins the schedule as soon as a probe is answered. ``weight_floor`` keeps a
     follower whose urgency fell to zero in the schedule (a stopped car must still be
     seen to start).
+
+    ``timeout`` is the longest wait for a reply; with ``adaptive_timeout`` each follower
+    gets its own, from its answered polls, at least ``timeout_floor`` (see
+    ``poll_timing``). ``price_by_time``: the policy's index is taken per unit of a poll's
+    expected time, so that a follower whose polls time out costs what they really cost.
     """
 
     policy: str = "whittle"
@@ -84,6 +97,9 @@ class LeaderConfig:
     max_fragments: int = DEFAULT_MAX_FRAGMENTS
     max_update_bytes: int = DEFAULT_MAX_UPDATE_BYTES
     clock_samples: int = 8
+    adaptive_timeout: bool = True
+    timeout_floor: float = 0.01
+    price_by_time: bool = True
 
     def __post_init__(self) -> None:
         from wiswarm_zenoh.core.policies import POLICIES
@@ -115,3 +131,5 @@ class LeaderConfig:
         _require(self.max_fragments >= 1, "max_fragments", ">= 1", self.max_fragments)
         _require(self.max_update_bytes >= 1, "max_update_bytes", ">= 1", self.max_update_bytes)
         _require(self.clock_samples >= 1, "clock_samples", ">= 1", self.clock_samples)
+        _require(math.isfinite(self.timeout_floor) and self.timeout_floor > 0,
+                 "timeout_floor", "> 0 seconds", self.timeout_floor)

@@ -40,4 +40,20 @@ class Stale:
     reason: str
 
 
-Event = Delivered | TimedOut | Rejected | Stale
+@dataclass(frozen=True, slots=True)
+class Silent:
+    """None of the follower's last ``polls`` polls was answered: it is probed alone now."""
+
+    follower: str
+    polls: int
+
+
+@dataclass(frozen=True, slots=True)
+class Answering:
+    """A silent follower answered again (after ``silent_for`` seconds)."""
+
+    follower: str
+    silent_for: float
+
+
+Event = Delivered | TimedOut | Rejected | Stale | Silent | Answering

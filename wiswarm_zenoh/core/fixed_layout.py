@@ -58,17 +58,17 @@ def _layout(*parts: bytes | str) -> Layout:
     return struct.Struct(fmt), constants, itemgetter(*where)
 
 
-# --- the poll: {v, t, seq, lt, want, ack}; four shapes (want x ack or not), four sizes ---
+# --- the poll: {v, t, seq, lt, e, want, ack}; four shapes (want x ack or not), four sizes ---
 
-_POLL_HEAD = b"\x86" + _key("v") + bytes([VERSION]) + _key("t") + _key("poll") + _key("seq")
+_POLL_HEAD = b"\x87" + _key("v") + bytes([VERSION]) + _key("t") + _key("poll") + _key("seq")
 
 
 def _poll_layout(want: Want, with_ack: bool) -> Layout:
     tail = _key("want") + _key(want) + _key("ack")
+    head = (_POLL_HEAD + UINT64, "Q", _key("lt") + FLOAT64, "d", _key("e") + UINT64, "Q")
     if not with_ack:
-        return _layout(_POLL_HEAD + UINT64, "Q", _key("lt") + FLOAT64, "d", tail + NIL)
-    return _layout(_POLL_HEAD + UINT64, "Q", _key("lt") + FLOAT64, "d",
-                   tail + b"\x92" + UINT64, "Q", UINT32, "I")
+        return _layout(*head, tail + NIL)
+    return _layout(*head, tail + b"\x92" + UINT64, "Q", UINT32, "I")
 
 
 _POLL_SHAPES = {(want, with_ack): _poll_layout(want, with_ack)
@@ -79,11 +79,11 @@ assert len(_POLL_BY_SIZE) == len(_POLL_SHAPES), "poll shapes must differ in size
 
 def pack_poll(poll: Poll) -> bytes:
     layout, constants, _ = _POLL_SHAPES[poll.want, poll.ack is not None]
-    head, lt_key, tail = constants[:3]
+    head, lt_key, epoch_key, tail = constants[:4]
     if poll.ack is None:
-        return layout.pack(head, poll.seq, lt_key, poll.leader_time, tail)
-    return layout.pack(head, poll.seq, lt_key, poll.leader_time, tail, poll.ack[0],
-                       UINT32, poll.ack[1])
+        return layout.pack(head, poll.seq, lt_key, poll.leader_time, epoch_key, poll.epoch, tail)
+    return layout.pack(head, poll.seq, lt_key, poll.leader_time, epoch_key, poll.epoch, tail,
+                       poll.ack[0], UINT32, poll.ack[1])
 
 
 def unpack_poll(data: bytes) -> Poll | None:
@@ -92,13 +92,14 @@ def unpack_poll(data: bytes) -> Poll | None:
         return None
     (want, with_ack), layout, constants, pick_constants = shape
     fields = layout.unpack(data)
-    seq, lt = fields[1], fields[3]
-    if pick_constants(fields) != constants or seq > MAX_INT or lt - lt != 0.0:
+    seq, lt, epoch = fields[1], fields[3], fields[5]
+    if (pick_constants(fields) != constants or seq > MAX_INT or epoch > MAX_INT
+            or lt - lt != 0.0):
         return None  # lt - lt is 0.0 for a finite float only
     if not with_ack:
-        return Poll(seq, lt, None, want)
-    acked = fields[5]
-    return None if acked > MAX_INT else Poll(seq, lt, (acked, fields[7]), want)
+        return Poll(seq, lt, None, want, epoch)
+    acked = fields[7]
+    return None if acked > MAX_INT else Poll(seq, lt, (acked, fields[9]), want, epoch)
 
 
 # --- the reply: {v, t, from, poll, rt, st, frag}; the id's length varies, then fixed ---

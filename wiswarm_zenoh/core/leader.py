@@ -8,13 +8,26 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
+from wiswarm_zenoh.core.clock import STAMP_SLACK
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
-from wiswarm_zenoh.core.events import Delivered, Event, Rejected, Stale, TimedOut
+from wiswarm_zenoh.core.events import (
+    Answering,
+    Delivered,
+    Event,
+    Rejected,
+    Silent,
+    Stale,
+    TimedOut,
+)
 from wiswarm_zenoh.core.fragments import verify_checksum
+from wiswarm_zenoh.core.messages import MAX_INT
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
-from wiswarm_zenoh.core.policies import FloatArray, IndexPolicy, make_policy
+from wiswarm_zenoh.core.plausibility import implausible
+from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
 from wiswarm_zenoh.core.poll_records import Answered, PollRequest, Prepared, Unsettled
+from wiswarm_zenoh.core.scheduling import choose
 from wiswarm_zenoh.core.wire import (
     Poll,
     Reply,
@@ -28,19 +41,6 @@ from wiswarm_zenoh.core.wire import (
 __all__ = ["FollowerStats", "Leader", "PollRequest"]
 
 SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted policies
-
-
-def _ages_in_slots(taus: Sequence[float], now: float, slot: float) -> list[float]:
-    """Each age at ``now`` (0 for a time-stamp ahead of it), in slots; plain floats, no
-    ``max`` call per follower (the scheduler runs this on every poll)."""
-    return [(now - tau) / slot if now > tau else 0.0 for tau in taus]
-
-
-def _array_ages_in_slots(taus: FloatArray, now: float, slot: float) -> FloatArray:
-    """``_ages_in_slots`` for many followers, in one numpy pass (a new array)."""
-    ages = np.maximum(now - taus, 0.0)
-    ages /= slot
-    return ages
 
 
 class Leader:
@@ -64,10 +64,14 @@ class Leader:
     None when the usual path must decide (see there).
     """
 
-    def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None):
+    def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
+                 epoch: int = 0) -> None:
+        if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
+            raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")
         self.config = config or LeaderConfig()
+        self.epoch = epoch  # in every poll and control: followers tell leaders apart by it
         self.policy = make_policy(self.config.policy, rng)
-        self.table = PeerTable(self.config.weight_floor)
+        self.table = PeerTable(self.config.weight_floor, self.config.price_by_time)
         self.unknown_replies = 0
         self.polls = 0
         self.fast_polls = 0  # polls sent by ``reply_and_poll``
@@ -138,7 +142,7 @@ class Leader:
         """Choose and build the next poll, or None while one is in flight or nobody is here."""
         if self._in_flight is not None or not self.table.ids:
             return None
-        return self._start_poll(self._choose(now), now)
+        return self._start_poll(choose(self.table, self.policy, self.slot, now), now)
 
     def _start_poll(self, choice: int, now: float) -> PollRequest:
         """Put a poll of the follower at ``choice`` in the table in flight."""
@@ -150,40 +154,13 @@ class Leader:
         peer.polls += 1
         if self._packed_control is None:
             self._packed_control = pack_entries(self._waypoints)
+        poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
         request = PollRequest(
-            follower, self._poll_seq, encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want)),
-            now + self.config.timeout, now, self._control_seq, self._packed_control,
+            follower, self._poll_seq, encode_poll(poll), now + peer.timing.timeout, now,
+            self._control_seq, self._packed_control, self.epoch,
         )
         self._in_flight = request
         return request
-
-    def _choose(self, now: float) -> int:
-        """The policy's pick among followers that answer; a silent one only when its
-        probe is due (or when every follower is silent)."""
-        table = self.table
-        if not table.silent:
-            return self._pick(now, None)
-        due = table.first_probe()
-        if table.probe_at[due] <= now or table.silent == len(table):
-            return due
-        live = table.live()
-        return live[self._pick(now, live)]
-
-    def _pick(self, now: float, live: list[int] | None) -> int:
-        """The policy's pick among all followers, or among those in ``live`` (an index
-        into it), by ages in slots; plain floats for a few followers, numpy for many."""
-        table, slot = self.table, self.slot
-        if table.few:
-            w: Sequence[float] = table.w
-            p: Sequence[float] = table.p
-            tau: Sequence[float] = table.tau
-            if live is not None:
-                w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
-            return self.policy.choose_few(w, p, _ages_in_slots(tau, now, slot))
-        wa, pa, taua = table.arrays()
-        if live is not None:
-            wa, pa, taua = wa[live], pa[live], taua[live]
-        return self.policy.choose(wa, pa, _array_ages_in_slots(taua, now, slot))
 
     def next_timer(self) -> float | None:
         return None if self._in_flight is None else self._in_flight.deadline
@@ -202,14 +179,26 @@ class Leader:
     def _unanswered(self, flight: PollRequest, now: float) -> list[Event]:
         peer = self.table.peers[flight.follower]
         self._in_flight = None
+        peer.timed_out.append((flight.poll_seq, flight.sent_at))
+        was_silent = peer.silent
         self._complete(flight, peer, answered=False, now=now)
         peer.timeouts += 1
         self.table.sync(flight.follower)
-        return [TimedOut(flight.follower, flight.poll_seq)]
+        events: list[Event] = [TimedOut(flight.follower, flight.poll_seq)]
+        if peer.silent and not was_silent:
+            peer.silent_since = now
+            events.append(Silent(flight.follower, self.config.window))
+        return events
 
     def _complete(self, flight: PollRequest, peer: Peer, answered: bool, now: float) -> None:
         """The poll ``flight`` is over (the caller syncs the policy arrays)."""
-        self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * max(now - flight.sent_at, 1e-6)
+        duration = max(now - flight.sent_at, 1e-6)
+        self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
+        if answered:
+            peer.timing.answered(duration)
+            typical = self.table.typical_success
+            self.table.typical_success = duration if typical == 0.0 else \
+                SLOT_EMA * typical + (1.0 - SLOT_EMA) * duration
         cfg = self.config
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
 
@@ -236,11 +225,21 @@ class Leader:
         flight = self._in_flight
         if flight is None or flight.follower != follower or reply.poll_seq != flight.poll_seq:
             peer.stale += 1
+            sent_at = _late(peer, reply.poll_seq) if reply.follower == follower else None
+            if sent_at is not None:  # answered after its timeout: a slower link than measured
+                peer.timing.answered(now - sent_at)
+                self.table.sync(follower)
+                return events
             events.append(Stale(follower, f"reply to poll {reply.poll_seq}, not the one in flight"))
             return events
         if reply.follower != follower:
             peer.errors += 1
             events.append(Rejected(follower, f"reply claims to come from {reply.follower!r}"))
+            return events
+        reason = implausible(flight, peer, reply, now)
+        if reason is not None:  # not this follower's answer: the poll waits for the real one
+            peer.errors += 1
+            events.append(Rejected(follower, reason))
             return events
         self._in_flight = None
         self._take_answer(Answered(flight, peer, reply, now), events)
@@ -249,9 +248,11 @@ class Leader:
     def _take_answer(self, answered: Answered, events: list[Event]) -> None:
         """A valid answer's effects: the poll's outcome, the clock, the fragment."""
         flight, peer, reply, now = answered.flight, answered.peer, answered.reply, answered.now
+        if peer.silent:
+            events.append(Answering(flight.follower, now - peer.silent_since))
         self._complete(flight, peer, answered=True, now=now)
         peer.clock.add(flight.sent_at, reply.received_at, reply.sent_at, now)
-        self._take_fragment(flight.follower, peer, reply, now, events)
+        self._take_fragment(flight, peer, reply, now, events)
         self.table.sync(flight.follower)
 
     def prepare(self) -> None:
@@ -266,13 +267,13 @@ class Leader:
             return
         at, slot, polled = flight.sent_at + self.slot, self.slot, table.index(flight.follower)
         if table.few:
-            values = policy.indices(table.w, table.p, _ages_in_slots(table.tau, at, slot))
+            values = policy.indices(table.w, table.p, ages_in_slots(table.tau, at, slot))
             values[polled] = -math.inf
             best = max(values)
             choice = values.index(best)  # the first of equals, as the policies' own pick
         else:
             wa, pa, taua = table.arrays()
-            indices = policy.index(wa, pa, _array_ages_in_slots(taua, at, slot))
+            indices = policy.index(wa, pa, array_ages_in_slots(taua, at, slot))
             indices[polled] = -np.inf
             choice = int(np.argmax(indices))
             best = float(indices[choice])
@@ -299,7 +300,8 @@ class Leader:
             return None
         frag = reply.fragment
         if (reply.poll_seq != prepared.poll_seq or reply.follower != follower
-                or (frag is not None and frag.count != 1)):
+                or (frag is not None and frag.count != 1)
+                or implausible(flight, peer, reply, now) is not None):
             return None
         fresh_from = now if frag is None else peer.clock.to_leader(frag.generated_at)
         age = max(prepared.at - max(peer.policy_tau, fresh_from), 0.0) / self.slot
@@ -312,10 +314,12 @@ class Leader:
         self.fast_polls += 1
         return self._start_poll(prepared.choice, now)
 
-    def _take_fragment(self, follower: str, peer: Peer, reply: Reply, now: float,
+    def _take_fragment(self, flight: PollRequest, peer: Peer, reply: Reply, now: float,
                        events: list[Event]) -> None:
-        """Collect the reply's fragment; an update it completes waits for ``settle``."""
-        frag = reply.fragment
+        """Collect the reply's fragment; an update it completes waits for ``settle``,
+        unless its time-stamp is ahead of ``now`` by more than the clock estimate's error
+        can be (the poll's round trip, and some slack): such an update is refused."""
+        follower, frag = flight.follower, reply.fragment
         if frag is None:
             peer.idle_since = now
             return
@@ -329,6 +333,11 @@ class Leader:
         peer.ack, peer.want = (frag.update_seq, frag.index), "next"
         if whole is not None:
             generated_at = peer.clock.to_leader(frag.generated_at)
+            ahead = generated_at - now
+            if ahead > now - flight.sent_at + STAMP_SLACK:
+                peer.errors += 1
+                events.append(Rejected(follower, f"update stamped {ahead:.3f} s in the future"))
+                return
             peer.unsettled_tau = generated_at
             self._unsettled = Unsettled(follower, peer, frag, whole, generated_at, now)
 
@@ -356,7 +365,8 @@ class Leader:
             peer.ack, peer.want = None, "fresh"
             self.table.sync(follower)
             return [Rejected(follower, str(exc))]
-        generated_at, now = unsettled.generated_at, unsettled.now
+        now = unsettled.now
+        generated_at = min(unsettled.generated_at, now)  # ahead within the tolerance: now
         delivered = peer.aoi.deliver(generated_at, now)
         self.table.sync(follower)
         if not delivered:
@@ -367,3 +377,13 @@ class Leader:
 
     def stats(self, follower: str, now: float) -> FollowerStats:
         return self._peer(follower).stats(follower, now)
+
+
+def _late(peer: Peer, poll_seq: int) -> float | None:
+    """When poll ``poll_seq`` of ``peer`` was sent, if it went unanswered lately (and is
+    then forgotten: one late reply teaches once)."""
+    for entry in peer.timed_out:
+        if entry[0] == poll_seq:
+            peer.timed_out.remove(entry)
+            return entry[1]
+    return None

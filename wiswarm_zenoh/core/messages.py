@@ -6,7 +6,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
-VERSION = 1
+VERSION = 2  # 2: polls and control carry the leader's epoch
 MAX_ID_BYTES = 128  # UTF-8
 MAX_WAYPOINTS = 256
 MAX_CONTROL_ENTRIES = 100_000
@@ -28,6 +28,7 @@ class Poll:
     leader_time: float
     ack: tuple[int, int] | None  # (update seq, fragment index) last received from this follower
     want: Want = "next"
+    epoch: int = 0  # which leader (a restarted or new leader has a larger one)
 
 
 @dataclass(slots=True)
@@ -61,6 +62,7 @@ class Control:
     seq: int
     leader_time: float
     entries: Mapping[str, Sequence[Waypoint]]
+    epoch: int = 0  # the leader's, as in its polls
 
 
 def id_fits(value: object) -> bool:

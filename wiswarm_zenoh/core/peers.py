@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import math
 from array import array
-from dataclasses import dataclass
+from collections import deque
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,7 +20,10 @@ from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
 from wiswarm_zenoh.core.fixed_layout import Expected, expect
 from wiswarm_zenoh.core.fragments import Reassembler
+from wiswarm_zenoh.core.poll_timing import PollTiming
 from wiswarm_zenoh.core.wire import Want
+
+LATE_KEPT = 8  # unanswered polls whose late replies still count (see Peer.timed_out)
 
 
 @dataclass(frozen=True)
@@ -55,12 +59,18 @@ class Peer:
     weight: WeightEMA
     clock: ClockOffsetEstimator
     reassembler: Reassembler
+    timing: PollTiming
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
     unsettled_tau: float = float("-inf")  # an update taken, its checksum not verified yet
     expected: Expected | None = None  # how its replies start (see ``fixed_layout.expect``)
     probe_at: float = float("-inf")  # when a silent follower may be probed next
     probe_gap: float = 0.0  # the current back-off between probes (0: not silent)
+    # (seq, sent at) of its latest polls that went unanswered: a reply to one of them,
+    # late, still tells the link's pace (replies queue behind each other on a slow link)
+    timed_out: deque[tuple[int, float]] = field(
+        default_factory=lambda: deque(maxlen=LATE_KEPT))
+    silent_since: float = 0.0  # when it last went silent
     want: Want = "next"
     polls: int = 0
     timeouts: int = 0
@@ -76,6 +86,8 @@ class Peer:
             weight=WeightEMA(config.alpha, config.initial_weight),
             clock=ClockOffsetEstimator(config.clock_samples),
             reassembler=Reassembler(config.max_fragments, config.max_update_bytes),
+            timing=PollTiming(config.timeout, config.timeout_floor if config.adaptive_timeout
+                              else config.timeout),
         )
 
     @property
@@ -84,6 +96,8 @@ class Peer:
 
     def record_poll(self, answered: bool, now: float, interval: float, longest: float) -> None:
         """Count a poll's outcome; a silent follower's next probe backs off exponentially."""
+        if not answered:
+            self.timing.timed_out(silent=self.silent)
         self.reliability.record(answered)
         if self.reliability.value > 0.0:
             self.probe_gap, self.probe_at = 0.0, -math.inf
@@ -102,6 +116,8 @@ class Peer:
         """The follower came back (new process): forget its transfer state and clock."""
         self.reassembler.reset()
         self.clock.reset()
+        self.timing.reset()
+        self.timed_out.clear()
         self.ack = None
         self.want = "fresh"
 
@@ -121,14 +137,17 @@ FEW = 64  # followers up to which plain loops beat numpy (its cost per call is f
 class PeerTable:
     """Followers in join order, with the columns (w, p, tau, probe_at) the leader reads.
 
-    ``w`` is each follower's weight raised to ``weight_floor``; ``tau`` its
+    ``w`` is each follower's weight raised to ``weight_floor`` (with ``price_by_time``,
+    per unit of its polls' expected time: ``PollTiming.price``); ``tau`` its
     ``policy_tau``: the scheduler's view of its freshness; ``probe_at`` is when a silent
     follower is due for a probe (+inf if not silent); ``silent`` counts those with p = 0,
     so that the common case (none) costs the scheduler no pass over the columns.
     """
 
-    def __init__(self, weight_floor: float = 0.0) -> None:
+    def __init__(self, weight_floor: float = 0.0, price_by_time: bool = False) -> None:
         self.weight_floor = weight_floor
+        self.price_by_time = price_by_time
+        self.typical_success = 0.0  # mean answered poll duration, any follower (seconds)
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
         self.silent = 0
@@ -175,7 +194,9 @@ class PeerTable:
         peer = self.peers[follower]
         p = peer.reliability.value
         self.silent += (p <= 0.0) - (self.p[i] <= 0.0)
-        self.w[i] = max(peer.weight.value, self.weight_floor)
+        weight = max(peer.weight.value, self.weight_floor)
+        self.w[i] = (weight * peer.timing.price(p, self.typical_success)
+                     if self.price_by_time else weight)
         self.p[i] = p
         self.tau[i] = peer.policy_tau
         self.probe_at[i] = peer.probe_at if p <= 0.0 else math.inf

@@ -28,10 +28,13 @@ class PollRequest:
     sent_at: float
     control_seq: int
     packed_entries: bytes
+    epoch: int
+    refused: bool = False  # a reply to it was refused for its clock stamps
 
     @property
     def control(self) -> bytes:
-        return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries)
+        return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries,
+                                     self.epoch)
 
 
 @dataclass(slots=True)

@@ -135,7 +135,7 @@ def _decode_poll_any(data: bytes) -> Poll:
     want = obj.get("want")
     if want not in ("next", "fresh"):
         raise WireError(f"field 'want' must be 'next' or 'fresh', got {want!r}")
-    return Poll(seq, lt, ack, want)
+    return Poll(seq, lt, ack, want, _int(obj, "e"))
 
 
 def encode_reply(reply: Reply) -> bytes:
@@ -212,21 +212,23 @@ def pack_entries(entries: Mapping[str, Sequence[Waypoint]]) -> bytes:
     return _pack({k: [list(w) for w in v] for k, v in entries.items()})
 
 
-_CONTROL_HEAD = b"\x85" + b"".join(msgpack.packb(x) for x in ("v", VERSION, "t", "control"))
-_SEQ, _LT, _ENTRIES = (msgpack.packb(k) for k in ("seq", "lt", "entries"))
+_CONTROL_HEAD = b"\x86" + b"".join(msgpack.packb(x) for x in ("v", VERSION, "t", "control"))
+_SEQ, _LT, _EPOCH, _ENTRIES = (msgpack.packb(k) for k in ("seq", "lt", "e", "entries"))
 
 
-def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes) -> bytes:
+def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes,
+                          epoch: int) -> bytes:
     """A control message around already packed entries: the leader sends one per poll,
     and re-encoding every follower's waypoints each time would cost O(N) per poll."""
     return b"".join(
         (_CONTROL_HEAD, _SEQ, msgpack.packb(seq), _LT, msgpack.packb(float(leader_time)),
-         _ENTRIES, packed_entries)
+         _EPOCH, msgpack.packb(epoch), _ENTRIES, packed_entries)
     )
 
 
 def encode_control(control: Control) -> bytes:
-    return encode_control_packed(control.seq, control.leader_time, pack_entries(control.entries))
+    return encode_control_packed(control.seq, control.leader_time,
+                                 pack_entries(control.entries), control.epoch)
 
 
 def _decode_waypoints(raw: object) -> list[Waypoint]:
@@ -249,4 +251,5 @@ def decode_control(data: bytes) -> Control:
     entries = {
         _ident(k, "control entry key"): _decode_waypoints(v) for k, v in entries_raw.items()
     }
-    return Control(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), entries=entries)
+    return Control(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), entries=entries,
+                   epoch=_int(obj, "e"))

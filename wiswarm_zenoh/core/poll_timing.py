@@ -1,0 +1,76 @@
+"""How long a follower's polls take, how long to wait for one, and what a lost one costs.
+
+The paper waits a fixed 0.3 s for every reply: right for its WiFi round trips, 500 times
+a poll on a fast link, where a hung follower then holds the whole swarm 0.3 s per poll.
+Here each follower's timeout follows its own answered polls: twice the longest of the
+last ``SAMPLES`` (a fragment of a large update, a slow link, a busy host are all in
+there), never under ``floor``, never over ``ceiling`` (``--timeout``). A first poll,
+with nothing known yet, waits ``ceiling``. While a follower is silent (probed alone,
+see ``LeaderConfig``), each probe that goes unanswered doubles the next probe's wait up
+to ``ceiling``, so a follower that came back on a slower link is found again; its first
+answer resets the doubling and brings its duration into the estimate. A reply that comes
+after its timeout counts as an answered poll of that duration: the link is slower than
+measured (a token bucket's burst made the first polls quick, say), and the next timeout
+is long enough for it.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+SAMPLES = 32  # answered polls the timeout is taken over
+MARGIN = 2.0  # times the longest of them
+
+
+class PollTiming:
+    """Durations of one follower's answered polls, and the timeout they give."""
+
+    __slots__ = ("_recent", "ceiling", "failed_probes", "floor", "timeout", "unanswered")
+
+    def __init__(self, ceiling: float, floor: float) -> None:
+        self.ceiling = ceiling
+        self.floor = min(floor, ceiling)
+        self.failed_probes = 0
+        self.unanswered = 0  # polls in a row that timed out
+        self._recent: deque[float] = deque(maxlen=SAMPLES)
+        self.timeout = ceiling  # kept current: read for every poll
+
+    def answered(self, duration: float) -> None:
+        self._recent.append(duration)
+        self.failed_probes = self.unanswered = 0
+        self._update()
+
+    def timed_out(self, silent: bool) -> None:
+        """A poll timed out; ``silent``: the follower is being probed alone."""
+        self.unanswered += 1
+        if silent:
+            self.failed_probes += 1
+            self._update()
+
+    def reset(self) -> None:
+        """The follower restarted: what was measured may not hold."""
+        self._recent.clear()
+        self.failed_probes = self.unanswered = 0
+        self.timeout = self.ceiling
+
+    @property
+    def success(self) -> float | None:
+        """The mean duration of its answered polls (None before the first)."""
+        return sum(self._recent) / len(self._recent) if self._recent else None
+
+    def price(self, p: float, typical: float) -> float:
+        """What one of its polls is worth per unit of time, relative to an answered
+        one: 1 / (q + (1 - q) K), K = timeout / mean answered duration (``typical``,
+        the swarm's, until it answered once): a lost poll costs K answered ones. q is
+        the chance the next poll is answered: p, halved for each poll in a row that
+        timed out (p over the last W polls is slow to see a follower that just died)."""
+        success = self.success or typical
+        if success <= 0.0:
+            return 1.0
+        q = p * 0.5 ** self.unanswered
+        return 1.0 / (q + (1.0 - q) * max(self.timeout / success, 1.0))
+
+    def _update(self) -> None:
+        base = self.ceiling if not self._recent else MARGIN * max(self._recent)
+        base = min(self.ceiling, max(self.floor, base))
+        self.timeout = min(self.ceiling, base * 2.0 ** self.failed_probes)

@@ -1,0 +1,38 @@
+"""Whom the leader polls next: the policy's pick over the peer table's columns."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
+from wiswarm_zenoh.core.peers import PeerTable
+from wiswarm_zenoh.core.policies import Policy
+
+
+def choose(table: PeerTable, policy: Policy, slot: float, now: float) -> int:
+    """The policy's pick among followers that answer; a silent one only when its probe
+    is due (or when every follower is silent)."""
+    if not table.silent:
+        return pick(table, policy, slot, now, None)
+    due = table.first_probe()
+    if table.probe_at[due] <= now or table.silent == len(table):
+        return due
+    live = table.live()
+    return live[pick(table, policy, slot, now, live)]
+
+
+def pick(table: PeerTable, policy: Policy, slot: float, now: float,
+         live: list[int] | None) -> int:
+    """The policy's pick among all followers, or among those in ``live`` (an index into
+    it), by ages in slots; plain floats for a few followers, numpy for many."""
+    if table.few:
+        w: Sequence[float] = table.w
+        p: Sequence[float] = table.p
+        tau: Sequence[float] = table.tau
+        if live is not None:
+            w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
+        return policy.choose_few(w, p, ages_in_slots(tau, now, slot))
+    wa, pa, taua = table.arrays()
+    if live is not None:
+        wa, pa, taua = wa[live], pa[live], taua[live]
+    return policy.choose(wa, pa, array_ages_in_slots(taua, now, slot))
