@@ -1,0 +1,102 @@
+"""What the security tests share: a swarm directory, sessions opened from its configs,
+inboxes to wait on, and a barrier through the router."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from pathlib import Path
+
+import zenoh
+
+from wiswarm_zenoh.security.acl import Roster
+from wiswarm_zenoh.security.deploy import Plan, init
+from wiswarm_zenoh.transport import SessionSpec, SwarmKeys
+
+WAIT = 15.0  # seconds: generous, since the machine may be busy; met in well under 1 s
+SWARM = "s"
+KEYS = SwarmKeys(SWARM)
+
+
+def make_swarm(directory: Path, port: int, followers: tuple[str, ...] = ("f1", "f2"),
+               observers: tuple[str, ...] = ("o1", "o2")) -> Path:
+    """A swarm directory whose router listens on 127.0.0.1:``port`` only."""
+    endpoint = (f"tls/127.0.0.1:{port}",)
+    init(directory, Plan(Roster(SWARM, "leader", followers, observers), listen=endpoint,
+                         connect=endpoint, days=1))
+    return directory
+
+
+class Sessions:
+    """Opens sessions from a swarm's configs and closes them all at the end of the test."""
+
+    def __init__(self, directory: Path) -> None:
+        self.directory = directory
+        self.opened: list[zenoh.Session] = []
+
+    def open(self, name: str) -> zenoh.Session:
+        session = SessionSpec(config_file=str(self.directory / f"{name}.json5")).open()
+        self.opened.append(session)
+        return session
+
+    def close_all(self) -> None:
+        for session in reversed(self.opened):
+            if not session.is_closed():
+                session.close()
+
+
+class Inbox:
+    """A subscriber keeping every payload it gets, waitable."""
+
+    def __init__(self, session: zenoh.Session, key_expr: str) -> None:
+        self.payloads: list[bytes] = []
+        self.cond = threading.Condition()
+        self._subscriber = session.declare_subscriber(key_expr, self._on_sample)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        with self.cond:
+            self.payloads.append(sample.payload.to_bytes())
+            self.cond.notify_all()
+
+    def received(self, payload: bytes, timeout: float) -> bool:
+        with self.cond:
+            return self.cond.wait_for(lambda: payload in self.payloads, timeout)
+
+    def wait_for(self, payload: bytes) -> list[bytes]:
+        """Everything received up to ``payload`` (which must come)."""
+        with self.cond:
+            assert self.cond.wait_for(lambda: payload in self.payloads, WAIT), \
+                f"timed out waiting for {payload!r}"
+            return self.payloads[:self.payloads.index(payload)]
+
+
+def answer(session: zenoh.Session, key: str, payload: bytes) -> zenoh.Queryable[None]:
+    """A queryable that answers ``payload`` on ``key``."""
+    def on_query(query: zenoh.Query) -> None:
+        with query:
+            query.reply(key, payload)
+
+    return session.declare_queryable(key, on_query)
+
+
+def replies(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[bytes]:
+    """The payloads of every reply to one ``get`` (all queryables, none merged)."""
+    return [reply.ok.payload.to_bytes() for reply in session.get(
+        key, target=zenoh.QueryTarget.ALL, consolidation=zenoh.ConsolidationMode.NONE,
+        timeout=timeout) if reply.ok is not None]
+
+
+def until(what: str, check: Callable[[], bool]) -> None:
+    """Retry ``check`` (each try is itself a wait, e.g. a get) until it holds."""
+    for _ in range(int(WAIT)):
+        if check():
+            return
+    raise AssertionError(f"never happened: {what}")
+
+
+def flushed(leader: zenoh.Session, follower: str) -> None:
+    """Once this returns, the router has handled everything ``follower``'s session sent
+    before: the leader got its reply to a poll (the reply followed them on the same
+    link, at the same priority), so a rogue message of the follower was taken or
+    refused by then. The follower must answer on its key with ``answer(..., b"ack")``."""
+    until(f"{follower} answers", lambda: b"ack" in replies(leader, KEYS.update(follower), 1.0))

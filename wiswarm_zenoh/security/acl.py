@@ -1,0 +1,101 @@
+"""The router's access control for one swarm, as data (Zenoh 1.10's ``access_control``).
+
+Everything is denied unless a rule allows it. The router checks each message twice:
+``ingress`` when a node sends it in, ``egress`` when the router sends it on to a node,
+so receiving a message needs its own rule. A declaration (subscriber, queryable) is
+allowed only if its key expression lies inside an allowed one. Nodes are told apart by
+their certificate's common name, which only mutual TLS proves.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from wiswarm_zenoh.transport.keys import SwarmKeys, check_follower, check_name
+
+ROUTER = "router"
+INGRESS, EGRESS = "ingress", "egress"
+
+
+@dataclass(frozen=True)
+class Roster:
+    """Who belongs to the swarm, by certificate common name."""
+
+    swarm: str
+    leader: str
+    followers: tuple[str, ...]
+    observers: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        SwarmKeys(self.swarm)
+        check_name(self.leader, "leader name")
+        for follower in self.followers:
+            check_follower(follower)
+        for observer in self.observers:
+            check_name(observer, "observer name")
+        names = [ROUTER, self.leader, *self.followers, *self.observers]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"node names must differ (router, leader, followers, observers): "
+                             f"{', '.join(twice)} given twice")
+
+    @property
+    def nodes(self) -> tuple[str, ...]:
+        """Every node but the router, leader first."""
+        return (self.leader, *self.followers, *self.observers)
+
+
+def _rule(rule_id: str, messages: list[str], flow: str, key_exprs: list[str]) -> dict[str, Any]:
+    return {"id": rule_id, "permission": "allow", "flows": [flow], "messages": messages,
+            "key_exprs": key_exprs}
+
+
+def access_control(roster: Roster) -> dict[str, Any]:
+    """The ``access_control`` section of the router's config for ``roster``."""
+    keys = SwarmKeys(roster.swarm)
+    p = keys.prefix
+    leader_stats, deliveries = keys.leader_stats, f"{p}/leader/deliveries"
+    leaders = f"{p}/leaders/*"
+    published = [keys.control, keys.all_stats, leader_stats, keys.all_fresh, deliveries]
+    watched = [keys.all_stats, leader_stats, keys.all_fresh]
+    updates = f"{p}/*/update"
+    leader_rules = [
+        _rule("leader-publishes", ["put"], INGRESS, published),
+        _rule("leader-polls", ["query"], INGRESS, [updates]),
+        _rule("leader-gets-replies", ["reply"], EGRESS, [updates]),
+        _rule("leader-watches-members", ["declare_liveliness_subscriber", "liveliness_query"],
+              INGRESS, [keys.members, leaders]),
+        _rule("leader-token", ["liveliness_token"], INGRESS, [f"{p}/leaders/{roster.leader}"]),
+        _rule("leader-sees-tokens", ["liveliness_token"], EGRESS, [keys.members, leaders]),
+        # Who listens and who answers, so that its publishers' matching status and its
+        # queriers see the swarm.
+        _rule("leader-sees-listeners", ["declare_subscriber", "declare_queryable"], EGRESS,
+              [*published, updates]),
+    ]
+    follower_rules = [
+        _rule("followers-subscribe-control", ["declare_subscriber"], INGRESS, [keys.control]),
+        _rule("followers-get-control", ["put"], EGRESS, [keys.control]),
+    ]
+    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, watched),
+                      _rule("observers-get-data", ["put"], EGRESS, watched)]
+    groups = [("leader", [roster.leader], leader_rules)]
+    if roster.followers:
+        groups.append(("followers", list(roster.followers), follower_rules))
+    for follower in roster.followers:
+        own = f"follower-{follower}"
+        groups.append((own, [follower], [
+            _rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS,
+                  [keys.update(follower)]),
+            _rule(f"{own}-is-polled", ["query"], EGRESS, [keys.update(follower)]),
+            _rule(f"{own}-is-member", ["liveliness_token"], INGRESS, [keys.member(follower)]),
+        ]))
+    if roster.observers:
+        groups.append(("observers", list(roster.observers), observer_rules))
+    # A subject list must not be empty: a group without members gets no subject at all.
+    rules = [rule for _, _, group in groups for rule in group]
+    subjects = [{"id": name, "cert_common_names": names} for name, names, _ in groups]
+    policies = [{"id": name, "subjects": [name], "rules": [r["id"] for r in group]}
+                for name, _, group in groups]
+    return {"enabled": True, "default_permission": "deny", "rules": rules,
+            "subjects": subjects, "policies": policies}
