@@ -23,24 +23,36 @@ follower in (b) next to the round-robin floor S (N/2 + 1).
     .venv/bin/python benchmarks/bench_poll.py                 # N = 4 and 14, 50 kB
     .venv/bin/python benchmarks/bench_poll.py -n 4 --seconds 2 --control-period 0
     .venv/bin/python benchmarks/bench_poll.py --layout processes  # a process per follower
+    .venv/bin/python benchmarks/bench_poll.py --secure   # mutual TLS + access control
+
+``--secure`` measures what closing the swarm costs: the ``LeaderNode`` of a swarm made by
+``wiswarm security init`` (TLS-only router with access control, every node a client
+with its own certificate) against the same leader in open swarms over TCP (clients of a
+router, the same topology; and peers, as nodes run by default), in alternating rounds,
+shared memory off everywhere (a network is meant: TLS never uses it).
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import math
 import multiprocessing
 import os
 import statistics
+import tempfile
 import threading
 import time
+from pathlib import Path
 from typing import Any
 
 import zenoh
 
 from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
+from wiswarm_zenoh.security.acl import Roster
+from wiswarm_zenoh.security.deploy import Plan, init
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.frames import SyntheticFrames
 from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
@@ -66,24 +78,28 @@ def bare_reply(follower: str, frame: bytes) -> bytes:
     return core.on_poll(encode_poll(Poll(1, time.time(), None)), time.time(), time.time())
 
 
-def followers_process(spec: SessionSpec, followers: list[str], frame_bytes: int,
-                      camera: float | None, stop: StopSignal, ready: ReadySignal) -> None:
+def followers_process(specs: list[SessionSpec], followers: list[str], frame_bytes: int,
+                      camera: float | None, bare: bool, stop: StopSignal,
+                      ready: ReadySignal) -> None:
     """Followers of one host process, each with a Zenoh session of its own (as on a
-    machine of its own): the bare queryable and the ``FollowerNode``."""
+    machine of its own, ``specs`` in order): the ``FollowerNode``, and with ``bare`` the
+    bare queryable."""
     frame = bytes(frame_bytes)
     with contextlib.ExitStack() as stack:
         feeds = []
-        for follower in followers:
+        for follower, spec in zip(followers, specs, strict=True):
             session = stack.enter_context(spec.open())
-            reply = bare_reply(follower, frame)
-            key = f"wiswarm/{BARE}/{follower}/update"
+            if bare:
+                reply = bare_reply(follower, frame)
+                key = f"wiswarm/{BARE}/{follower}/update"
 
-            def answer(query: zenoh.Query, key: str = key, reply: bytes = reply) -> None:
-                with query:
-                    query.reply(key, reply)
+                def answer(query: zenoh.Query, key: str = key, reply: bytes = reply) -> None:
+                    with query:
+                        query.reply(key, reply)
 
-            bare = session.declare_queryable(key, zenoh.handlers.Callback(answer, indirect=False))
-            stack.callback(bare.undeclare)
+                queryable = session.declare_queryable(
+                    key, zenoh.handlers.Callback(answer, indirect=False))
+                stack.callback(queryable.undeclare)
             node = stack.enter_context(FollowerNode(
                 session, SWARM, follower, sample_on_poll=None if camera else lambda: frame))
             if camera:
@@ -163,17 +179,13 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
     return rate, stats, fast / max(polls, 1)
 
 
-def measure(n: int, args: argparse.Namespace) -> None:
+Job = tuple[Any, tuple[Any, ...]]
+
+
+@contextlib.contextmanager
+def children(jobs: list[Job]) -> Any:
+    """Each job in a ``spawn`` child, up before the next starts; all stopped at the end."""
     ctx = multiprocessing.get_context("spawn")
-    port = free_tcp_port()
-    node_spec = SessionSpec.loopback(args.mode, connect_ports=[port])
-    followers = [f"uav{i}" for i in range(n)]
-    hosts = [followers] if args.layout == "host" else [[f] for f in followers]
-    jobs: list[tuple[Any, tuple[Any, ...]]] = [
-        (run_router, (SessionSpec.loopback("router", port),)),
-        *((followers_process, (node_spec, names, args.frame_bytes, args.camera))
-          for names in hosts),
-    ]
     procs = []
     try:
         for target, target_args in jobs:
@@ -183,6 +195,27 @@ def measure(n: int, args: argparse.Namespace) -> None:
             procs.append(proc)
             if not ready.wait(READY_TIMEOUT):
                 raise RuntimeError("a child process did not come up")
+        yield
+    finally:
+        for proc in procs:
+            proc.terminate()
+        for proc in procs:
+            proc.join(10)
+            if proc.is_alive():
+                proc.kill()
+
+
+def measure(n: int, args: argparse.Namespace) -> None:
+    port = free_tcp_port()
+    node_spec = SessionSpec.loopback(args.mode, connect_ports=[port])
+    followers = [f"uav{i}" for i in range(n)]
+    hosts = [followers] if args.layout == "host" else [[f] for f in followers]
+    jobs: list[Job] = [
+        (run_router, (SessionSpec.loopback("router", port),)),
+        *((followers_process, ([node_spec] * len(names), names, args.frame_bytes, args.camera,
+                               True)) for names in hosts),
+    ]
+    with children(jobs):
         config = LeaderConfig(policy=args.policy, timeout=args.timeout)
         with node_spec.open() as session:
             wait_for_routes(session, followers, args.timeout)
@@ -199,13 +232,74 @@ def measure(n: int, args: argparse.Namespace) -> None:
                 leader.append(rate)
                 fast_shares.append(fast)
         report(n, args, bare, leader, stats, statistics.median(fast_shares))
-    finally:
-        for proc in procs:
-            proc.terminate()
-        for proc in procs:
-            proc.join(10)
-            if proc.is_alive():
-                proc.kill()
+
+
+SWARMS = ("secured", "secured, no log", "open clients", "open peers")
+NO_SHM = ("transport/shared_memory/enabled:false",)
+
+
+def logging_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal) -> None:
+    """The router as ``wiswarm router`` runs it: its log shows what access control refuses
+    (which makes Zenoh trace every access-control decision, see ``zenoh_log``)."""
+    run_router(spec, stop, ready, log_verbosity=0)
+
+
+def swarm(kind: str, followers: list[str], args: argparse.Namespace,
+          directory: Path) -> tuple[list[Job], SessionSpec]:
+    """The processes of one swarm of ``kind`` (its router, its followers in one host
+    process) and the session spec of its leader."""
+    port = free_tcp_port()
+    if kind.startswith("secured"):
+        directory = directory / str(port)
+        endpoint = (f"tls/127.0.0.1:{port}",)
+        init(directory, Plan(Roster(SWARM, "leader", tuple(followers)), listen=endpoint,
+                             connect=endpoint))
+        router = SessionSpec(config_file=str(directory / "router.json5"))
+        specs = [SessionSpec(config_file=str(directory / f"{f}.json5")) for f in followers]
+        leader = SessionSpec(config_file=str(directory / "leader.json5"))
+    else:
+        router = dataclasses.replace(SessionSpec.loopback("router", port), cfg=NO_SHM)
+        leader = dataclasses.replace(SessionSpec.loopback(
+            "client" if kind == "open clients" else "peer", connect_ports=[port]), cfg=NO_SHM)
+        specs = [leader] * len(followers)
+    router_target = logging_router if kind == "secured" else run_router
+    return [(router_target, (router,)),
+            (followers_process, (specs, followers, args.frame_bytes, args.camera, False))], leader
+
+
+def measure_secure(n: int, args: argparse.Namespace) -> None:
+    """The leader's polls/s in a secured swarm and in open ones, rounds alternating."""
+    followers = [f"uav{i}" for i in range(n)]
+    config = LeaderConfig(policy=args.policy, timeout=args.timeout)
+    rates: dict[str, list[float]] = {kind: [] for kind in SWARMS}
+    means: dict[str, list[float]] = {kind: [] for kind in SWARMS}
+    with tempfile.TemporaryDirectory() as tmp:
+        jobs, leaders = [], {}
+        for kind in SWARMS:
+            kind_jobs, leaders[kind] = swarm(kind, followers, args, Path(tmp) / "pki")
+            jobs += kind_jobs
+        with children(jobs), contextlib.ExitStack() as stack:
+            sessions = {kind: stack.enter_context(leaders[kind].open()) for kind in SWARMS}
+            for i in range(args.rounds):
+                for kind in SWARMS if i % 2 == 0 else SWARMS[::-1]:
+                    rate, stats, _ = leader_round(sessions[kind], n, args.seconds, config,
+                                                  args.control_period)
+                    rates[kind].append(rate)
+                    means[kind].append(statistics.mean(float(r["mean_aoi_s"]) for r in stats))
+    print(f"\nN = {n}, {args.frame_bytes} B updates, {args.rounds} rounds of {args.seconds:g} s "
+          f"per swarm, alternating; shared memory off (load average "
+          f"{', '.join(f'{x:.1f}' for x in os.getloadavg())} on {os.cpu_count()} CPUs)")
+    for kind in SWARMS:
+        print(f"  {kind:15} {statistics.median(rates[kind]):8.0f} polls/s   mean AoI "
+              f"{statistics.median(means[kind]) * 1e3:6.2f} ms   (rounds: "
+              f"{', '.join(f'{x:.0f}' for x in rates[kind])})")
+    for secured in SWARMS[:2]:
+        for kind in SWARMS[2:]:
+            paired = sorted(s / o for s, o in zip(rates[secured], rates[kind], strict=True))
+            low, median, high = (statistics.quantiles(paired, n=4) if len(paired) > 1
+                                 else paired * 3)
+            print(f"  {secured + ' / ' + kind:31} {median:5.2f}   target >= 0.85   (median of "
+                  f"{len(paired)} paired rounds, quartiles {low:.2f} .. {high:.2f})")
 
 
 def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[float],
@@ -259,9 +353,11 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=0.3)
     parser.add_argument("--control-period", type=float, default=0.1,
                         help="seconds between repeats of unchanged control (0: every poll)")
+    parser.add_argument("--secure", action="store_true",
+                        help="a secured swarm's leader against open swarms' (see above)")
     args = parser.parse_args()
     for n in args.followers:
-        measure(n, args)
+        (measure_secure if args.secure else measure)(n, args)
 
 
 if __name__ == "__main__":

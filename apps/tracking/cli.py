@@ -18,25 +18,34 @@ from apps.tracking.report import summarise, summary_lines, write_outputs
 from apps.tracking.uav_app import SYSTEMS
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
-from wiswarm_zenoh.cli.testbed import argument_type, require_testbed
+from wiswarm_zenoh.cli.arguments import (
+    RATE,
+    SEED,
+    TIME,
+    finite_float,
+    positive_float,
+    positive_int,
+    writable_dir,
+)
+from wiswarm_zenoh.cli.testbed import require_testbed
 from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.testbed import ChannelSpec
-from wiswarm_zenoh.units import parse_rate, parse_seconds
 
 log = logging.getLogger(__name__)
 
 
 def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--uavs", type=int, default=4, help="UAVs, one car each (default 4)")
-    parser.add_argument("--duration", type=float, default=30.0,
+    parser.add_argument("--uavs", type=positive_int(), default=4,
+                        help="UAVs, one car each (default 4)")
+    parser.add_argument("--duration", type=positive_float(), default=30.0,
                         help="seconds measured, after the warm-up (default 30)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the world (default 0)")
+    parser.add_argument("--seed", type=SEED, default=0, help="seed of the world (default 0)")
     parser.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                         help="wiswarm: polled LIFO; push: frames put at --rate into FIFOs")
-    parser.add_argument("--rate", type=float, default=None,
+    parser.add_argument("--rate", type=positive_float(), default=None,
                         help="camera frames/s per UAV (default 100 wiswarm, 50 push)")
-    parser.add_argument("--out", type=Path, default=None,
+    parser.add_argument("--out", type=writable_dir(), default=None, metavar="DIR",
                         help="output directory (default runs/<timestamp>)")
     parser.add_argument("--frame-size", type=int, choices=demo.FRAME_SIZES, default=224,
                         help="square frame side in pixels (224 stationary, 160 flight)")
@@ -48,13 +57,13 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="Zenoh mode of the leader and UAVs (the router is embedded)")
     parser.add_argument("--policy", choices=sorted(POLICIES), default="whittle",
                         help="the leader's polling policy (wiswarm)")
-    parser.add_argument("--warmup", type=float, default=2.0,
+    parser.add_argument("--warmup", type=finite_float(0.0), default=2.0,
                         help="seconds before the cars start, to settle (default 2)")
-    parser.add_argument("--channel", type=argument_type(parse_rate), metavar="RATE",
+    parser.add_argument("--channel", type=RATE, metavar="RATE",
                         help="put the UAVs behind an emulated shared channel of this rate "
                         "each way, e.g. 20mbit (Linux, root: network namespaces and tc tbf; "
                         "the UAVs are then Zenoh clients of the leader side's router)")
-    parser.add_argument("--channel-queue", type=argument_type(parse_seconds), default=0.2,
+    parser.add_argument("--channel-queue", type=TIME, default=0.2,
                         metavar="TIME", help="the channel's queue (tbf latency, default 200ms)")
     parser.add_argument("--no-live", action="store_true", help="no live table")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
@@ -90,8 +99,6 @@ def run_demo(args: argparse.Namespace) -> int:
     if options.channel is not None:
         require_testbed()
     out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"--out {out} exists and is not a directory")
     run = demo.run(options)
     summary = summarise(run)
     paths = write_outputs(out, run, summary)

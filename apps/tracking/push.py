@@ -43,6 +43,7 @@ class PushLeader:
         self._entries: dict[str, list[Waypoint]] = {}
         self._weights: dict[str, float] = {}
         self._seq = 0
+        self._epoch = max(0, int(clock() * 1e6))  # as a polling leader's: its start time
         self._lock = threading.Lock()
         self._changed = threading.Event()
         self._stop = threading.Event()
@@ -80,7 +81,8 @@ class PushLeader:
                 entries = dict(self._entries)
             if entries and not self._stop.is_set():
                 self._seq += 1
-                self._control.put(encode_control(Control(self._seq, self._clock(), entries)))
+                self._control.put(encode_control(
+                    Control(self._seq, self._clock(), entries, self._epoch)))
 
     def close(self) -> None:
         self._stop.set()

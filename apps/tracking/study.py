@@ -21,14 +21,20 @@ from typing import Any
 
 from apps.tracking import demo
 from apps.tracking.report import summarise
-from wiswarm_zenoh.cli.sim import ProgressBar, numbers
+from wiswarm_zenoh.cli.arguments import (
+    COUNTS,
+    SEED,
+    add_rate_grid,
+    positive_float,
+    writable_dir,
+)
+from wiswarm_zenoh.cli.sim import ProgressBar
 from wiswarm_zenoh.cli.testbed import (
     add_channel_arguments,
     channel_spec,
     require_testbed,
 )
 from wiswarm_zenoh.cli.usage import UsageError
-from wiswarm_zenoh.sim.sweep import PAPER_RATES
 from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
 from wiswarm_zenoh.units import format_rate
 
@@ -155,8 +161,6 @@ def _table(rows: list[Row], shown: tuple[str, ...], title: str) -> str:
 
 
 def _tracking(args: argparse.Namespace) -> int:
-    if any(n != int(n) or n < 1 for n in args.ns):
-        raise UsageError("--ns must be whole numbers >= 1")
     channel = channel_spec(args)
     try:
         base = demo.DemoOptions(duration_s=args.duration, seed=args.seed, channel=channel,
@@ -164,7 +168,7 @@ def _tracking(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     require_testbed()
-    ns = [int(n) for n in args.ns]
+    ns = list(args.ns)
     out: Path = args.out or Path("runs") / time.strftime("tracking-%Y%m%d-%H%M%S")
     title = (f"tracking over {format_rate(channel.rate_bps)} "
              f"({channel.queue_s * 1e3:g} ms queue), {args.duration:g} s per run")
@@ -186,17 +190,15 @@ def register_tracking(studies: Any) -> None:
     parser = studies.add_parser(
         "tracking", help="the flight study: tracking error and AoI against N over a channel",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--ns", type=numbers, default=(1.0, 2.0, 3.0, 4.0, 5.0),
+    parser.add_argument("--ns", type=COUNTS, default=(1, 2, 3, 4, 5),
                         help="numbers of UAVs (default 1,2,3,4,5)")
-    parser.add_argument("--rates", type=numbers, default=PAPER_RATES,
-                        help="push's rate grid for its best rate, fps (default the paper's)")
-    parser.add_argument("--fixed-rate", type=float, default=50.0,
-                        help="the fixed-rate push's fps (default 50)")
-    parser.add_argument("--duration", type=float, default=20.0,
+    add_rate_grid(parser, "push's")
+    parser.add_argument("--duration", type=positive_float(), default=20.0,
                         help="seconds measured per run (default 20)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the world (default 0)")
+    parser.add_argument("--seed", type=SEED, default=0, help="seed of the world (default 0)")
     parser.add_argument("--frame-size", type=int, choices=demo.FRAME_SIZES, default=224,
                         help="square frame side in pixels (default 224)")
-    parser.add_argument("--out", type=Path, help="output directory (runs/tracking-<timestamp>)")
+    parser.add_argument("--out", type=writable_dir(), metavar="DIR",
+                        help="output directory (runs/tracking-<timestamp>)")
     add_channel_arguments(parser)
     parser.set_defaults(func=_tracking)

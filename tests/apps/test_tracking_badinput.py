@@ -19,6 +19,7 @@ from apps.tracking.reception import Reception
 from apps.tracking.render import Renderer
 from apps.tracking.uav_app import SYSTEMS, System, UavOptions, UavRuntime
 from apps.tracking.world import World, WorldConfig
+from wiswarm_zenoh.core.messages import VERSION
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec, SwarmKeys
 from wiswarm_zenoh.transport.badinput import BadInputLog
 
@@ -72,8 +73,8 @@ def test_bad_frames_are_rejected_with_a_reason_and_tracking_goes_on(
 
 def control(seq: int, entries: dict[str, list[list[float]]]) -> bytes:
     """A control message as raw msgpack (the encoder would refuse a NaN)."""
-    return bytes(msgpack.packb({"v": 1, "t": "control", "seq": seq, "lt": time.time(),
-                                "entries": entries}))
+    return bytes(msgpack.packb({"v": VERSION, "t": "control", "seq": seq, "lt": time.time(),
+                                "e": 0, "entries": entries}))
 
 
 @pytest.mark.parametrize("system", SYSTEMS)

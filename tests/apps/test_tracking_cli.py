@@ -25,9 +25,9 @@ def test_defaults_are_the_paper_setup() -> None:
 
 
 @pytest.mark.parametrize(("argv", "words"), [
-    (("--uavs", "0"), "uavs must be in [1, 50]"),
-    (("--duration", "nan"), "duration must be in"),
-    (("--rate", "-5"), "rate must be in (0, 1000]"),
+    (("--uavs", "51"), "uavs must be in [1, 50]"),
+    (("--duration", "0.5"), "duration must be in"),
+    (("--rate", "5000"), "rate must be in (0, 1000]"),
     (("--warmup", "0.1"), "warm-up must be in"),
 ])
 def test_bad_values_are_usage_errors(argv: tuple[str, ...], words: str) -> None:
@@ -35,18 +35,27 @@ def test_bad_values_are_usage_errors(argv: tuple[str, ...], words: str) -> None:
         options_from(parse(*argv))
 
 
-def test_bad_choices_exit_with_code_2(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(("argv", "words"), [
+    (("--system", "udp"), "invalid choice"),
+    (("--uavs", "0"), "--uavs: must be >= 1"),
+    (("--duration", "nan"), "--duration: expected a finite number"),
+    (("--rate", "-5"), "--rate: must be > 0"),
+])
+def test_unparseable_values_exit_with_code_2(capsys: pytest.CaptureFixture[str],
+                                             argv: tuple[str, ...], words: str) -> None:
     with pytest.raises(SystemExit) as exit_info:
-        parse("--system", "udp")
+        parse(*argv)
     assert exit_info.value.code == 2
-    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and words in err[0]
 
 
-def test_out_must_be_a_directory(tmp_path: Path) -> None:
+def test_out_must_be_a_directory(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     target = tmp_path / "file"
     target.write_text("")
-    with pytest.raises(UsageError, match="not a directory"):
-        run_demo(parse("--out", str(target)))
+    with pytest.raises(SystemExit):
+        parse("--out", str(target))
+    assert "exists and is not a directory" in capsys.readouterr().err
 
 
 def test_a_short_run_prints_a_summary_and_writes_the_files(

@@ -51,7 +51,7 @@ def _zenoh(port: int) -> list[str]:
     (["follower", "--id", "a", "--system", "udp", "--to", "127.0.0.1:9", "--frame-bytes",
       "65500"], "frame_bytes 65500 does not fit one UDP datagram (at most 65484"),
     (["follower", "--id", "a", "--system", "udp", "--to", "nowhere"],
-     "address 'nowhere' must look like HOST:PORT"),
+     "argument --to: 'nowhere' must look like HOST:PORT"),
     (["follower", "--id", "a", "--system", "push", "--frame-bytes", "8"],
      "frame_bytes must be in [16, 16777216], got 8"),
     (["leader", "--system", "tcp", "--bind", "nowhere"], "must look like HOST:PORT"),
@@ -89,9 +89,7 @@ def test_an_address_in_use_is_one_line_and_exit_2(
 ])
 def test_help_explains_the_systems(capsys: pytest.CaptureFixture[str], command: str,
                                    words: list[str]) -> None:
-    with pytest.raises(SystemExit) as exit_info:
-        cli_main.main([command, "--help"])
-    assert exit_info.value.code == 0
+    assert cli_main.main([command, "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     for word in words:
         assert word in text

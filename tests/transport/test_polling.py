@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import logging
 import os
 import struct
 import threading
 import time
 
+import pytest
 import zenoh
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, Waypoint
@@ -130,3 +132,28 @@ def test_with_two_followers_most_polls_go_out_the_moment_the_reply_before_came(
         delivered = [d for d in recorder.deliveries if d.follower == node.follower_id]
         assert len(delivered) >= 80
         assert [d.update_seq for d in delivered] == sorted({d.update_seq for d in delivered})
+
+
+def test_a_follower_whose_link_turns_slower_than_its_timeout_is_served_on(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Its first slow reply comes after the timeout learned on the fast link; Zenoh's get
+    is still open then (until ``--timeout``), so that reply teaches the core the link's
+    new pace. Were it dropped, every poll would time out until the follower was taken
+    for silent and found again by probes."""
+    slow = threading.Event()
+
+    def sample() -> bytes:
+        if slow.is_set():
+            time.sleep(0.06)  # the link's delay, on the reply's way (not a synchronisation)
+        return b"frame"
+
+    FollowerNode(sessions.node(port), SWARM, "uav1", sample_on_poll=sample)
+    with caplog.at_level(logging.WARNING, "wiswarm_zenoh"), \
+            LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()):
+        recorder.wait("fast deliveries", lambda r: len(r.deliveries) >= 100)
+        slow.set()
+        before = len(recorder.deliveries)
+        recorder.wait("slow deliveries", lambda r: len(r.deliveries) >= before + 15)
+    assert "stopped answering" not in caplog.text

@@ -14,10 +14,20 @@ import time
 from pathlib import Path
 from typing import Any
 
-from wiswarm_zenoh.cli.sim import ProgressBar, numbers
+from wiswarm_zenoh.cli.arguments import (
+    COUNTS,
+    add_rate_grid,
+    finite_float,
+    listed,
+    one_of,
+    positive_float,
+    positive_int,
+    writable_dir,
+)
+from wiswarm_zenoh.cli.sim import ProgressBar
 from wiswarm_zenoh.cli.testbed import add_channel_arguments, channel_spec, require_testbed
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
-from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES
+from wiswarm_zenoh.sim.sweep import PAPER_NS
 from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.testbed.study_report import write_study
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
@@ -42,11 +52,9 @@ def register(subparsers: Any) -> None:
 
 
 def _study_config(args: argparse.Namespace) -> StudyConfig:
-    if any(n != int(n) for n in args.ns):
-        raise UsageError("--ns must be whole numbers")
     try:
         return StudyConfig(
-            ns=tuple(int(n) for n in args.ns), baselines=tuple(args.baselines.split(",")),
+            ns=args.ns, baselines=args.baselines,
             rates=args.rates, fixed_rate=args.fixed_rate, batches=args.batches,
             duration=args.duration, warmup=args.warmup, frame_bytes=args.frame_bytes,
             channel=channel_spec(args), parallel=args.parallel,
@@ -82,24 +90,23 @@ def register_testbed(studies: Any) -> None:
         "shaped channel between network namespaces (Linux, root): for each N, WiSwarm, each "
         "baseline at --fixed-rate and at its best rate of --rates (found by a search). "
         "Writes CSVs, figures with the simulator's model of the channel beside, gains.md.")
-    testbed.add_argument("--ns", type=numbers, default=tuple(float(n) for n in PAPER_NS),
+    testbed.add_argument("--ns", type=COUNTS, default=PAPER_NS,
                          help="numbers of UAVs (default 2,4,...,14)")
-    testbed.add_argument("--baselines", default=",".join(BASELINES),
+    testbed.add_argument("--baselines", type=listed(one_of(BASELINES), ",".join(BASELINES)),
+                         default=BASELINES,
                          help=f"comma-separated, of {', '.join(BASELINES)} (default all)")
-    testbed.add_argument("--rates", type=numbers, default=PAPER_RATES,
-                         help="the baselines' rate grid, fps (default the paper's)")
-    testbed.add_argument("--fixed-rate", type=float, default=50.0,
-                         help="the fixed-rate baselines' fps (default 50)")
-    testbed.add_argument("--batches", type=int, default=1, help="batches per point (default 1; "
-                         "the paper: 4)")
-    testbed.add_argument("--duration", type=float, default=30.0,
+    add_rate_grid(testbed, "the baselines'")
+    testbed.add_argument("--batches", type=positive_int(), default=1,
+                         help="batches per point (default 1; the paper: 4)")
+    testbed.add_argument("--duration", type=positive_float(), default=30.0,
                          help="seconds measured per run (default 30; the paper: 240)")
-    testbed.add_argument("--warmup", type=float, default=5.0,
+    testbed.add_argument("--warmup", type=finite_float(0.0), default=5.0,
                          help="seconds before each run's window opens (default 5)")
-    testbed.add_argument("--frame-bytes", type=int, default=FRAME_BYTES,
+    testbed.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                          help=f"bytes per camera frame (default {FRAME_BYTES} = 224x224)")
-    testbed.add_argument("--parallel", type=int, default=2,
+    testbed.add_argument("--parallel", type=positive_int(), default=2,
                          help="runs at once, each on a channel of its own (default 2)")
-    testbed.add_argument("--out", type=Path, help="output directory (runs/testbed-<timestamp>)")
+    testbed.add_argument("--out", type=writable_dir(), metavar="DIR",
+                         help="output directory (runs/testbed-<timestamp>)")
     add_channel_arguments(testbed)
     testbed.set_defaults(func=_testbed)

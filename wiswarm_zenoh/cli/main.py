@@ -1,7 +1,8 @@
 """Entry point of the ``wiswarm`` console script.
 
 Each subcommand group lives in its own module exposing ``register(subparsers)``;
-bad input ends with one line on stderr and exit code 2.
+bad input ends with one line on stderr and exit code 2, returned by ``main`` (argparse's
+exit included), so that callers in-process see the same code as the shell.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
 # Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
 # ``func`` (args -> exit code) on the parsers it adds.
@@ -21,6 +23,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "wiswarm_zenoh.cli.sim",
     "wiswarm_zenoh.cli.testbed",
     "wiswarm_zenoh.cli.experiment",
+    "wiswarm_zenoh.cli.security",
     "apps.tracking.cli",
 )
 
@@ -44,9 +47,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help (0), or a bad flag: its one line is written
+        return exc.code if isinstance(exc.code, int) else 2
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if args.command != "router":  # which starts Zenoh's log itself, showing denials
+        init_zenoh_log(args.verbose)
     try:
         code: int = args.func(args)
     except UsageError as exc:

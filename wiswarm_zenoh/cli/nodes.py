@@ -12,8 +12,10 @@ Without -e or -c, leader and follower connect to a router on this machine
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.baselines import (
@@ -27,11 +29,21 @@ from wiswarm_zenoh.baselines import (
     run_receiver,
 )
 from wiswarm_zenoh.baselines import SYSTEMS as BASELINES
+from wiswarm_zenoh.cli.arguments import (
+    add_zenoh_arguments,
+    finite_float,
+    host_port,
+    node_name,
+    positive_float,
+    positive_int,
+    writable_dir,
+    writable_file,
+)
 from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.security.checks import check_identity
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
-from wiswarm_zenoh.transport.keys import SwarmKeys, check_follower
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
 from wiswarm_zenoh.transport.report import LiveTable, PollRates, format_table
 from wiswarm_zenoh.transport.runners import (
@@ -46,7 +58,6 @@ from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
     SessionSpec,
-    add_zenoh_arguments,
 )
 
 DEFAULT_SWARM = "swarm"
@@ -59,27 +70,15 @@ FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
 
 
-def _positive(kind: type[float] | type[int], most: float = float("inf")) -> Any:
-    def parse(text: str) -> float | int:
-        try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not 0 < value <= most:
-            raise argparse.ArgumentTypeError(f"must be in (0, {most:g}], got {text}")
-        return value
-
-    return parse
-
-
 def _add_common(parser: argparse.ArgumentParser, modes: tuple[str, ...]) -> None:
     add_zenoh_arguments(parser, modes)
-    parser.add_argument("--duration", type=_positive(float), metavar="SECONDS",
+    parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",
                         help="stop after this long (default: until Ctrl-C)")
 
 
 def _add_swarm(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--swarm", default=DEFAULT_SWARM, help="swarm name (a key chunk)")
+    parser.add_argument("--swarm", default=DEFAULT_SWARM, type=node_name("swarm name"),
+                        help=f"swarm name, a key chunk (default {DEFAULT_SWARM})")
 
 
 def _checked(build: Any, *args: Any, **kwargs: Any) -> Any:
@@ -107,11 +106,20 @@ class _Announce:
         print(self._text, flush=True)
 
 
+def _listening(spec: SessionSpec) -> list[str]:
+    """Where a router listens: its flags, else its config file, else Zenoh's default
+    (a map by mode when nothing was set)."""
+    endpoints = json.loads(spec.config().get_json("listen/endpoints"))
+    return list(endpoints["router"] if isinstance(endpoints, dict) else endpoints)
+
+
 def _router(args: argparse.Namespace) -> int:
     spec = _spec(args, "router")
-    where = ", ".join(spec.listen) or "tcp/[::]:7447"
+    where = ", ".join(_listening(spec))
+    # Where access control runs: what it refuses shows at the default level.
     run_router(spec, threading.Event(),
-               _Announce(f"wiswarm router: listening on {where} (Ctrl-C to stop)"), args.duration)
+               _Announce(f"wiswarm router: listening on {where} (Ctrl-C to stop)"), args.duration,
+               log_verbosity=args.verbose)
     return 0
 
 
@@ -153,14 +161,11 @@ def _receiver(args: argparse.Namespace) -> int:
 
 
 def _leader(args: argparse.Namespace) -> int:
-    _checked(SwarmKeys, args.swarm)
     _only_for(args, LEADER_ONLY)
     if args.system != "wiswarm":
         return _receiver(args)
     config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha"))
     control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
-    if control_period < 0:
-        raise UsageError(f"--control-period must be >= 0, got {control_period}")
     options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record)
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
@@ -197,8 +202,7 @@ def _baseline_follower(args: argparse.Namespace) -> int:
 
 
 def _follower(args: argparse.Namespace) -> int:
-    _checked(check_follower, args.id)
-    _checked(SwarmKeys, args.swarm)
+    check_identity(args.config, args.id)
     _only_for(args, FOLLOWER_ONLY)
     if args.system != "wiswarm":
         return _baseline_follower(args)
@@ -224,7 +228,7 @@ def _check_frame_bytes(frame_bytes: int, config: FollowerConfig) -> None:
 def _demo(args: argparse.Namespace) -> int:
     _check_frame_bytes(args.frame_bytes, FollowerConfig())
     run_dir = run_demo(DemoOptions(args.followers, args.duration, args.policy,
-                                   args.frame_bytes, args.rate, args.out))
+                                   args.frame_bytes, args.rate, str(args.out)))
     print(f"run directory: {run_dir}", file=sys.stdout)
     return 0
 
@@ -245,21 +249,22 @@ def register(subparsers: Any) -> None:
     _add_swarm(leader)
     leader.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                         help="wiswarm: poll (default); push|udp|tcp: receive that baseline")
-    leader.add_argument("--bind", metavar="HOST:PORT",
+    leader.add_argument("--bind", metavar="HOST:PORT", type=host_port(),
                         help=f"udp/tcp: listen here (default {DEFAULT_BIND})")
     leader.add_argument("--policy", choices=sorted(POLICIES),
                         help=f"wiswarm: whom to poll next (default {defaults.policy})")
-    leader.add_argument("--timeout", type=_positive(float),
+    leader.add_argument("--timeout", type=positive_float(),
                         help=f"wiswarm: seconds to wait for a reply (default {defaults.timeout})")
-    leader.add_argument("--window", type=_positive(int),
+    leader.add_argument("--window", type=positive_int(),
                         help="wiswarm: polls over which each follower's reliability is "
                         f"estimated (default {defaults.window})")
-    leader.add_argument("--alpha", type=float,
+    leader.add_argument("--alpha", type=finite_float(),
                         help=f"wiswarm: weight EMA factor in [0, 1] (default {defaults.alpha})")
-    leader.add_argument("--control-period", type=float, metavar="SECONDS",
+    leader.add_argument("--control-period", type=finite_float(0.0), metavar="SECONDS",
                         help="wiswarm: repeat unchanged control information this often "
                         f"(default {CONTROL_PERIOD}); 0 puts it with every poll")
-    leader.add_argument("--record", metavar="CSV", help="write every delivery to this file")
+    leader.add_argument("--record", metavar="CSV", type=writable_file(),
+                        help="write every delivery to this file (its directory must exist)")
     _add_common(leader, ("peer", "client"))
     leader.set_defaults(func=_leader)
 
@@ -272,7 +277,8 @@ def register(subparsers: Any) -> None:
         "and sent in order, by Zenoh put (push) or plain sockets to --to (udp: one "
         "datagram a frame; tcp: one connection).")
     _add_swarm(follower)
-    follower.add_argument("--id", required=True, help="this follower's id (a key chunk)")
+    follower.add_argument("--id", required=True, type=node_name("follower id", follower=True),
+                          help="this follower's id (a key chunk)")
     follower.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                           help="wiswarm: answer polls (default); push: put every frame on "
                           "wiswarm/<swarm>/<id>/push; udp/tcp: send every frame to --to")
@@ -280,20 +286,20 @@ def register(subparsers: Any) -> None:
                           help="push: block (reliable, the put waits while Zenoh's queues "
                           "are full: the paper's WiFi-TCP; default) or drop (a plain put: "
                           "Zenoh's default)")
-    follower.add_argument("--to", metavar="HOST:PORT",
+    follower.add_argument("--to", metavar="HOST:PORT", type=host_port(),
                           help="udp/tcp: the receiver (wiswarm leader --system udp|tcp)")
     follower.add_argument("--queue", choices=["lifo", "fifo"],
                           help="wiswarm: the follower's queue (default lifo)")
-    follower.add_argument("--capacity", type=_positive(int),
+    follower.add_argument("--capacity", type=positive_int(),
                           help=f"queue capacity (default 1; push/udp/tcp: a FIFO of "
                           f"{DEFAULT_CAPACITY})")
-    follower.add_argument("--rate", type=_positive(float, MAX_RATE_HZ),
+    follower.add_argument("--rate", type=positive_float(MAX_RATE_HZ),
                           help=f"frames per second (default {FRAME_RATE:g}; push/udp/tcp: "
                           f"{BASELINE_RATE:g}, the paper's), and a wiswarm FIFO's rate control")
-    follower.add_argument("--fragment-size", type=_positive(int),
+    follower.add_argument("--fragment-size", type=positive_int(),
                           help="wiswarm: bytes per reply (default "
                           f"{FollowerConfig().fragment_size})")
-    follower.add_argument("--frame-bytes", type=_positive(int), default=FRAME_BYTES,
+    follower.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                           help=f"bytes per synthetic frame (default {FRAME_BYTES} = 224x224; "
                           "udp: what fits one datagram)")
     _add_common(follower, ("peer", "client"))
@@ -302,11 +308,16 @@ def register(subparsers: Any) -> None:
     demo = subparsers.add_parser(
         "swarm-demo", help="router + leader + synthetic followers, live table and plots"
     )
-    demo.add_argument("--followers", type=_positive(int), default=6)
-    demo.add_argument("--duration", type=_positive(float), default=20.0, metavar="SECONDS")
-    demo.add_argument("--policy", default="whittle", choices=sorted(POLICIES))
-    demo.add_argument("--frame-bytes", type=_positive(int), default=FRAME_BYTES)
-    demo.add_argument("--rate", type=_positive(float, MAX_RATE_HZ), default=FRAME_RATE,
+    demo.add_argument("--followers", type=positive_int(), default=6,
+                      help="synthetic followers (default 6)")
+    demo.add_argument("--duration", type=positive_float(), default=20.0, metavar="SECONDS",
+                      help="how long the demo runs (default 20)")
+    demo.add_argument("--policy", default="whittle", choices=sorted(POLICIES),
+                      help="the leader's polling policy (default whittle)")
+    demo.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
+                      help=f"bytes per synthetic frame (default {FRAME_BYTES})")
+    demo.add_argument("--rate", type=positive_float(MAX_RATE_HZ), default=FRAME_RATE,
                       help="frames/s")
-    demo.add_argument("--out", default="runs", help="where run directories go")
+    demo.add_argument("--out", default=Path("runs"), type=writable_dir(), metavar="DIR",
+                      help="where run directories go (default runs)")
     demo.set_defaults(func=_demo)

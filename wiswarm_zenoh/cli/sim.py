@@ -7,10 +7,21 @@ import json
 import os
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from wiswarm_zenoh.cli.arguments import (
+    COUNTS,
+    PROBABILITIES,
+    RATE,
+    SEED,
+    TIME,
+    add_rate_grid,
+    float_range,
+    positive_float,
+    positive_int,
+    writable_dir,
+)
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.sim.link import LinkParams, LinkScenario, run_link
@@ -24,25 +35,8 @@ from wiswarm_zenoh.sim.scenario import (
     run_wifi,
 )
 from wiswarm_zenoh.sim.slotted import DEFAULT_SLOTS, SlottedSpec, run_slotted
-from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, SweepConfig, run_sweep, summarise
-from wiswarm_zenoh.units import format_rate, parse_rate, parse_seconds
-
-
-def _range(text: str) -> tuple[float, float]:
-    """``LO:HI`` as two floats (argparse type)."""
-    try:
-        lo, hi = (float(part) for part in text.split(":"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected LO:HI, got {text!r}") from None
-    return lo, hi
-
-
-def numbers(text: str) -> tuple[float, ...]:
-    """A comma-separated list of numbers (argparse type)."""
-    try:
-        return tuple(float(part) for part in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected numbers like 1,3,5, got {text!r}") from None
+from wiswarm_zenoh.sim.sweep import PAPER_NS, SweepConfig, run_sweep, summarise
+from wiswarm_zenoh.units import format_rate
 
 
 def _build(factory: Any, **kwargs: Any) -> Any:
@@ -51,15 +45,6 @@ def _build(factory: Any, **kwargs: Any) -> Any:
         return factory(**kwargs)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-
-
-def _parsed(parse: Callable[[str], Any], text: str, flag: str) -> Any:
-    """A flag's value in tc's spelling (``20mbit``, ``200ms``); its ValueError is the
-    user's mistake."""
-    try:
-        return parse(text)
-    except ValueError as exc:
-        raise UsageError(f"{flag}: {exc}") from None
 
 
 def _print_json(obj: object) -> None:
@@ -115,9 +100,8 @@ def _wifi(args: argparse.Namespace) -> int:
 
 
 def _link(args: argparse.Namespace) -> int:
-    down = None if args.down_rate is None else _parsed(parse_rate, args.down_rate, "--down-rate")
-    link = _build(LinkParams, rate_bps=_parsed(parse_rate, args.link_rate, "--link-rate"),
-                  down_rate_bps=down, queue_s=_parsed(parse_seconds, args.queue, "--queue"))
+    link = _build(LinkParams, rate_bps=args.link_rate, down_rate_bps=args.down_rate,
+                  queue_s=args.queue)
     scenario = _build(LinkScenario, link=link, **_workload(args))
     return _show(run_link(scenario), args.json)
 
@@ -140,12 +124,8 @@ class ProgressBar:
 
 
 def _sweep(args: argparse.Namespace) -> int:
-    if args.jobs < 1:
-        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
-    if any(n != int(n) for n in args.ns):
-        raise UsageError("--ns must be whole numbers")
     config = _build(
-        SweepConfig, ns=tuple(int(n) for n in args.ns), rates=args.rates,
+        SweepConfig, ns=args.ns, rates=args.rates,
         fixed_rate=args.fixed_rate, batches=args.batches, duration=args.duration,
         seed=args.seed, frame_bytes=args.frame_bytes,
     )
@@ -160,16 +140,23 @@ def _sweep(args: argparse.Namespace) -> int:
 
 def _add_workload(parser: argparse.ArgumentParser) -> None:
     """The flags of a run over any channel: the system, its followers and cameras."""
-    parser.add_argument("--n", type=int, required=True, help="number of followers (UAVs)")
-    parser.add_argument("--system", default="wiswarm", help=f"one of {', '.join(SYSTEMS)}")
-    parser.add_argument("--rate", type=float, help="udp/tcp frames per second (default 50)")
-    parser.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
+    parser.add_argument("--n", type=positive_int(), required=True,
+                        help="number of followers (UAVs)")
+    parser.add_argument("--system", default="wiswarm", choices=SYSTEMS,
+                        help="the system simulated (default wiswarm)")
+    parser.add_argument("--rate", type=positive_float(),
+                        help="udp/tcp frames per second (default 50)")
+    parser.add_argument("--frame-bytes", type=positive_int(), default=PAPER_FRAME_BYTES,
                         help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
-    parser.add_argument("--duration", type=float, default=240.0, help="simulated seconds")
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    parser.add_argument("--fifo-frames", type=int, help="bound the baselines' FIFO (unbounded)")
-    parser.add_argument("--sample-rate", type=float, default=100.0, help="WiSwarm cameras, fps")
-    parser.add_argument("--policy", default="whittle", help="WiSwarm's scheduling policy")
+    parser.add_argument("--duration", type=positive_float(), default=240.0,
+                        help="simulated seconds (default 240)")
+    parser.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
+    parser.add_argument("--fifo-frames", type=positive_int(),
+                        help="bound the baselines' FIFO (default unbounded)")
+    parser.add_argument("--sample-rate", type=positive_float(), default=100.0,
+                        help="WiSwarm cameras, fps (default 100)")
+    parser.add_argument("--policy", default="whittle", choices=sorted(POLICIES),
+                        help="WiSwarm's scheduling policy (default whittle)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
 
 
@@ -181,14 +168,16 @@ def register(subparsers: Any) -> None:
     kinds.required = True
 
     slotted = kinds.add_parser("slotted", help="Kadota et al.'s slotted model, against L_B")
-    slotted.add_argument("--n", type=int, required=True, help="number of followers")
-    slotted.add_argument("--policy", default="whittle", help=f"one of {', '.join(POLICIES)}")
-    slotted.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    slotted.add_argument("--weights", type=_range, default=(1.0, 5.0), metavar="LO:HI",
-                         help="weights drawn from U[LO, HI] (default 1:5)")
-    slotted.add_argument("--reliability", type=_range, default=(0.5, 1.0), metavar="LO:HI",
+    slotted.add_argument("--n", type=positive_int(), required=True, help="number of followers")
+    slotted.add_argument("--policy", default="whittle", choices=sorted(POLICIES),
+                         help="whom to poll next (default whittle)")
+    slotted.add_argument("--seed", type=SEED, default=0, help="random seed (default 0)")
+    slotted.add_argument("--weights", type=float_range(positive_float()), default=(1.0, 5.0),
+                         metavar="LO:HI", help="weights drawn from U[LO, HI] (default 1:5)")
+    slotted.add_argument("--reliability", type=PROBABILITIES, default=(0.5, 1.0),
+                         metavar="LO:HI",
                          help="success probabilities from U[LO, HI] (default 0.5:1)")
-    slotted.add_argument("--slots", type=int, default=DEFAULT_SLOTS,
+    slotted.add_argument("--slots", type=positive_int(), default=DEFAULT_SLOTS,
                          help=f"slots to simulate (default {DEFAULT_SLOTS})")
     slotted.add_argument("--json", action="store_true", help="print one JSON object")
     slotted.set_defaults(func=_slotted)
@@ -196,18 +185,19 @@ def register(subparsers: Any) -> None:
     wifi = kinds.add_parser("wifi", help="an 802.11 shared medium with CSMA/CA")
     _add_workload(wifi)
     lo, hi = DEFAULT_RELIABILITY
-    wifi.add_argument("--reliability", type=_range, default=DEFAULT_RELIABILITY,
+    wifi.add_argument("--reliability", type=PROBABILITIES, default=DEFAULT_RELIABILITY,
                       metavar="LO:HI", help=f"per-attempt MAC success, U[LO, HI] ({lo}:{hi})")
     wifi.set_defaults(func=_wifi)
 
     defaults = LinkParams()
     link = kinds.add_parser("link", help="the testbed's link: a tc tbf each way over a veth")
     _add_workload(link)
-    link.add_argument("--link-rate", default=format_rate(defaults.rate_bps), metavar="RATE",
+    link.add_argument("--link-rate", default=defaults.rate_bps, metavar="RATE", type=RATE,
                       help="the uplink's (and by default the downlink's) tbf rate "
                            f"(default {format_rate(defaults.rate_bps)})")
-    link.add_argument("--down-rate", metavar="RATE", help="the downlink's rate, if different")
-    link.add_argument("--queue", default=f"{defaults.queue_s * 1e3:g}ms", metavar="TIME",
+    link.add_argument("--down-rate", metavar="RATE", type=RATE,
+                      help="the downlink's rate, if different")
+    link.add_argument("--queue", default=defaults.queue_s, metavar="TIME", type=TIME,
                       help=f"tbf latency: the queue's limit (default {defaults.queue_s * 1e3:g}ms)")
     link.set_defaults(func=_link)
 
@@ -215,18 +205,18 @@ def register(subparsers: Any) -> None:
 def register_sweep(studies: Any) -> None:
     """``experiment sweep``: the stationary study in the simulator."""
     sweep = studies.add_parser("sweep", help="the stationary study: AoI against N and rate")
-    sweep.add_argument("--ns", type=numbers, default=tuple(float(n) for n in PAPER_NS),
+    sweep.add_argument("--ns", type=COUNTS, default=PAPER_NS,
                        help="numbers of UAVs (default 2,4,...,14)")
-    sweep.add_argument("--rates", type=numbers, default=PAPER_RATES,
-                       help="the baselines' rate grid, fps (default the paper's)")
-    sweep.add_argument("--fixed-rate", type=float, default=50.0,
-                       help="the fixed-rate baselines' fps (default 50)")
-    sweep.add_argument("--batches", type=int, default=4, help="batches per point (default 4)")
-    sweep.add_argument("--duration", type=float, default=240.0, help="seconds per batch")
-    sweep.add_argument("--seed", type=int, default=0, help="seed of the first batch")
-    sweep.add_argument("--frame-bytes", type=int, default=PAPER_FRAME_BYTES,
+    add_rate_grid(sweep, "the baselines'")
+    sweep.add_argument("--batches", type=positive_int(), default=4,
+                       help="batches per point (default 4)")
+    sweep.add_argument("--duration", type=positive_float(), default=240.0,
+                       help="seconds per batch (default 240)")
+    sweep.add_argument("--seed", type=SEED, default=0, help="seed of the first batch")
+    sweep.add_argument("--frame-bytes", type=positive_int(), default=PAPER_FRAME_BYTES,
                        help=f"bytes per camera frame (default {PAPER_FRAME_BYTES})")
-    sweep.add_argument("--jobs", type=int, default=os.cpu_count() or 1,
+    sweep.add_argument("--jobs", type=positive_int(), default=os.cpu_count() or 1,
                        help="parallel worker processes (default: one per core)")
-    sweep.add_argument("--out", type=Path, help="output directory (runs/sweep-<timestamp>)")
+    sweep.add_argument("--out", type=writable_dir(), metavar="DIR",
+                       help="output directory (runs/sweep-<timestamp>)")
     sweep.set_defaults(func=_sweep)

@@ -11,6 +11,7 @@ import argparse
 import re
 from typing import Any
 
+from wiswarm_zenoh.cli.arguments import RATE, TIME, ArgType
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.testbed import (
     Channel,
@@ -22,7 +23,7 @@ from wiswarm_zenoh.testbed import (
     remove_channel,
 )
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
-from wiswarm_zenoh.units import format_rate, parse_rate, parse_seconds
+from wiswarm_zenoh.units import format_rate
 
 _SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)
 _SIZE_UNITS = {None: 1, "b": 1, "k": 1024, "kb": 1024, "m": 1024**2, "mb": 1024**2}
@@ -37,14 +38,14 @@ def parse_size(text: str) -> int:
     return int(found.group(1)) * _SIZE_UNITS[unit]
 
 
-def argument_type(parse: Any) -> Any:
-    """An argparse type from a parser raising ValueError: its message is the one line."""
-    def convert(text: str) -> Any:
-        try:
-            return parse(text)
-        except ValueError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-    return convert
+def _run_id(text: str) -> str:
+    """A channel's run id, as ``Channel`` takes it for a name (nothing is built)."""
+    Channel(name=text)
+    return text
+
+
+RUN_ID = ArgType("run id", _run_id)
+SIZE = ArgType("size", parse_size)
 
 
 def require_testbed() -> None:
@@ -80,11 +81,7 @@ def channel_spec(args: argparse.Namespace) -> ChannelSpec:
 
 
 def _up(args: argparse.Namespace) -> int:
-    spec = channel_spec(args)
-    try:
-        channel = Channel(spec, name=args.name)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+    channel = Channel(channel_spec(args), name=args.name)
     require_testbed()
     try:
         channel.build(persistent=True)
@@ -175,12 +172,12 @@ def _set(args: argparse.Namespace) -> int:
 
 
 def _add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
-    parser.add_argument("--rate", type=argument_type(parse_rate), required=rate_required,
+    parser.add_argument("--rate", type=RATE, required=rate_required,
                         default=None if rate_required else 20_000_000, metavar="RATE",
                         help="the shared uplink's rate, followers -> leader, in tc's "
                              "spelling (20mbit, 500kbit)" +
                              ("" if rate_required else "; default 20mbit"))
-    parser.add_argument("--down-rate", type=argument_type(parse_rate), metavar="RATE",
+    parser.add_argument("--down-rate", type=RATE, metavar="RATE",
                         help="the downlink's rate, leader -> followers (polls and control); "
                              "default: as --rate")
 
@@ -188,10 +185,10 @@ def _add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
 def add_channel_arguments(parser: argparse.ArgumentParser) -> None:
     """The channel's shape: --rate, --down-rate, --queue, --burst (``channel_spec``)."""
     _add_rates(parser, rate_required=False)
-    parser.add_argument("--queue", type=argument_type(parse_seconds), default=0.2,
+    parser.add_argument("--queue", type=TIME, default=0.2,
                         metavar="TIME", help="how long a packet may wait in each direction's "
                         "queue before tail drop (tbf latency), e.g. 200ms; default 200ms")
-    parser.add_argument("--burst", type=argument_type(parse_size), default=32 * 1024,
+    parser.add_argument("--burst", type=SIZE, default=32 * 1024,
                         metavar="SIZE", help="the token bucket's size: bytes sent back to back "
                         "at line speed after a pause, at least one MTU packet, e.g. 32kb; "
                         "default 32kb")
@@ -212,14 +209,17 @@ def register(subparsers: Any) -> None:
                     "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
                     "Prints what it built, how to start nodes in it, and its run id.")
     add_channel_arguments(up)
-    up.add_argument("--name", help="the run id to use (default: made up, printed)")
+    up.add_argument("--name", type=RUN_ID,
+                    help="the run id to use: 1-24 letters, digits, '-' or '_' (default: "
+                    "made up, printed)")
     up.set_defaults(func=_up)
 
     down = actions.add_parser(
         "down", help="remove a channel, or every one",
         description="Remove the channel RUN_ID, or every testbed channel (wsw-* namespaces) "
                     "when no id is given, whoever made them.")
-    down.add_argument("run_id", nargs="?", metavar="RUN_ID", help="the channel to remove")
+    down.add_argument("run_id", nargs="?", metavar="RUN_ID", type=RUN_ID,
+                      help="the channel to remove")
     down.set_defaults(func=_down)
 
     status = actions.add_parser(
@@ -233,6 +233,6 @@ def register(subparsers: Any) -> None:
         description="Change the rates of a channel mid-run (tc qdisc change: queued packets "
                     "stay). Without --down-rate the downlink takes --rate too.")
     _add_rates(set_rate, rate_required=True)
-    set_rate.add_argument("run_id", nargs="?", metavar="RUN_ID",
+    set_rate.add_argument("run_id", nargs="?", metavar="RUN_ID", type=RUN_ID,
                           help="the channel (optional when exactly one exists)")
     set_rate.set_defaults(func=_set)

@@ -54,7 +54,8 @@ class FollowerNode:
         self._queryable = session.declare_queryable(
             self._key, zenoh.handlers.Callback(self._on_query, indirect=False)
         )
-        self._control = ControlListener(session, swarm, follower_id, on_control, self.bad_input)
+        self._control = ControlListener(session, swarm, follower_id, on_control, self.bad_input,
+                                        core=self._core, lock=self._lock, clock=clock)
         self._token = session.liveliness().declare_token(self.keys.member(follower_id))
         log.info("follower %s up on %s", follower_id, self._key)
 

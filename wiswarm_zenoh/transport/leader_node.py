@@ -1,13 +1,13 @@
 """The leader on Zenoh: discovery by liveliness, the poll loop, control and telemetry.
 
-One thread owns the loop and keeps exactly one poll in flight: it asks the core whom to
-poll, sends the ``get`` through that follower's prepared querier, and hands each reply
-to the core as it arrives (the reply channel is read right on this thread, no hop).
-The poll is over as soon as the core takes a valid reply, and the loop moves on then:
-Zenoh's closing of that ``get`` (the follower's final message) is not waited for; the
-``get`` is kept open aside, and whatever else it brings (a second queryable on the
-key, say) is handed to the core later, which counts it as stale or rejected. Only if
-Zenoh closes the ``get`` with no valid reply (the timeout) is the core told so.
+One thread owns the loop and keeps exactly one poll in flight. Everything it reacts to
+comes through one inbox: each get's replies and its end (put by Zenoh's own thread, see
+``links``) and wake-ups for membership changes. It waits on that inbox until the core's
+timer (the poll's adaptive deadline) or the next stats; the core's timer is what ends a
+poll, and Zenoh's get stays open until the ceiling (``--timeout``), so a reply that
+comes after its deadline still reaches the core and lengthens that follower's timeout.
+A get that Zenoh closes with no valid reply before the deadline (nobody answers on the
+key) ends the poll at once.
 
 While a poll is out, the core picks whom to poll next if the reply comes as usual
 (``prepare``); when it comes, ``reply_and_poll`` checks it against that pick and the next
@@ -21,6 +21,7 @@ reply is taken the usual way: ``accept_reply``, then ``poll``.
 from __future__ import annotations
 
 import logging
+import queue
 import random
 import threading
 import time
@@ -32,12 +33,14 @@ from typing import TypeVar
 import zenoh
 
 from wiswarm_zenoh.core import (
+    Answering,
     Delivered,
     Event,
     Leader,
     LeaderConfig,
     PollRequest,
     Rejected,
+    Silent,
     Stale,
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
@@ -54,12 +57,12 @@ from wiswarm_zenoh.transport.telemetry import (
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
-Outstanding = tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]  # a poll sent, and its replies
+# (link, poll seq, reply) as a get brings it, reply None when the get ends; None: a wake-up
+Arrival = tuple[FollowerLink, int, zenoh.Reply | None] | None
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
 ZENOH_TIMEOUT = b"Timeout"  # the error reply Zenoh itself gives a get that timed out
-LATE_BATCH = 8  # finished polls whose gets are drained together (and at every stats put)
 
 
 def _notify(callback: Callable[[T], object], arg: T) -> None:
@@ -77,7 +80,8 @@ class LeaderNode:
     update, ``on_join``/``on_leave`` as liveliness tokens come and go. The control
     information is put on ``wiswarm/<swarm>/control`` with the first poll after it
     changes (or a follower joins) and repeated every ``control_period`` seconds;
-    ``control_period=0`` puts it with every poll.
+    ``control_period=0`` puts it with every poll. ``epoch`` (in every poll and control
+    message) defaults to the start time in microseconds.
     """
 
     def __init__(
@@ -93,10 +97,12 @@ class LeaderNode:
         rng: random.Random | None = None,
         stats_period: float = STATS_PERIOD,
         control_period: float = CONTROL_PERIOD,
+        epoch: int | None = None,
     ) -> None:
         self.keys = SwarmKeys(swarm)
         self._session = session
-        self._leader = Leader(config, rng)
+        # A leader started later has a larger epoch: followers then take it as theirs.
+        self._leader = Leader(config, rng, max(0, int(clock() * 1e6)) if epoch is None else epoch)
         self.config = self._leader.config
         self._clock = clock
         self._on_delivery = on_delivery
@@ -107,10 +113,10 @@ class LeaderNode:
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._lock = threading.Lock()  # the core, between the poll thread and callers
         self._changes: deque[tuple[str, bool]] = deque()
-        self._wake = threading.Event()
+        self._inbox: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
         self._stop = threading.Event()
         self._links: dict[str, FollowerLink] = {}
-        self._late: list[Outstanding] = []  # gets whose poll is over, still open
+        self._flight: int | None = None  # the seq of the poll in flight, as sent
         self._delivered: list[Delivered] = []  # not handed over yet
         self._transport_errors: Counter[str] = Counter()
         self.bad_input = BadInputLog(log)
@@ -143,6 +149,11 @@ class LeaderNode:
         return self._leader.polls
 
     @property
+    def epoch(self) -> int:
+        """This leader's epoch, in every poll and control message it sends."""
+        return self._leader.epoch
+
+    @property
     def fast_polls(self) -> int:
         """Polls sent the moment the reply before them came (see the module's docstring)."""
         return self._leader.fast_polls
@@ -160,9 +171,8 @@ class LeaderNode:
     def close(self) -> None:
         """Stop polling (waits for the poll in flight) and undeclare everything."""
         self._stop.set()
-        self._wake.set()
+        self._inbox.put(None)
         self._thread.join()
-        self._late.clear()
         undeclare(self._members)
         for link in self._links.values():
             link.close()
@@ -185,69 +195,97 @@ class LeaderNode:
             self.bad_input.report(key, "not a valid member key")
             return
         self._changes.append((follower, sample.kind == zenoh.SampleKind.PUT))
-        self._wake.set()
+        self._inbox.put(None)
 
     # --- the poll thread ---
 
     def _run(self) -> None:
         try:
-            out: Outstanding | None = None  # the poll in flight, once sent
             while not self._stop.is_set():
                 if self._changes:
                     self._apply_changes()
                 now = self._clock()
                 if now >= self._next_stats:
                     self._publish_stats(now)
-                if out is None:
+                if self._flight is None:
                     with self._lock:
                         request = self._leader.poll(now)
                         version = self._control_version
-                    if request is None:
+                    if request is not None:
+                        self._send(request, version, now)
+                    else:
                         self._settle()
-                        self._wake.wait(max(0.0, self._next_stats - now))
-                        self._wake.clear()
-                        continue
-                    out = self._send(request, version, now)
-                out = self._await(*out)
+                with self._lock:
+                    timer = self._leader.next_timer()
+                wake_at = self._next_stats if timer is None else min(timer, self._next_stats)
+                try:
+                    arrival = self._inbox.get(timeout=max(0.0, wake_at - now))
+                except queue.Empty:
+                    self._on_timer()
+                    continue
+                if arrival is not None:
+                    self._arrive(*arrival)
         finally:
             self._settle()
 
-    def _send(self, request: PollRequest, version: int, now: float) -> Outstanding:
-        """Send a poll (and the control information, when due)."""
+    def _send(self, request: PollRequest, version: int, now: float) -> None:
+        """Send a poll (and the control information, when due); then, while it is on its
+        way, finish taking the last reply and pick whom to poll after it."""
         sent_version, sent_at = self._control_sent
         if version != sent_version or now - sent_at >= self._control_period:
             self._control.put(request.control)
             self._control_sent = (version, now)
-        link = self._links[request.follower]
-        return link, link.querier.get(payload=request.payload)
-
-    def _await(self, link: FollowerLink, replies: zenoh.Handler[zenoh.Reply]) -> Outstanding | None:
-        """Hand the poll's replies to the core until one completes it (the get is then
-        kept aside, see the module's docstring) or Zenoh closes the get. Returns the
-        next poll if the core sent it on the fast path (``reply_and_poll``)."""
-        self._settle()  # the last poll's, while this one is on its way
-        if len(self._late) >= LATE_BATCH:
-            self._drain_late()
+        link, seq, inbox = self._links[request.follower], request.poll_seq, self._inbox
+        self._flight = seq
+        link.poll(request.payload, lambda reply: inbox.put((link, seq, reply)),
+                  lambda: self._ended(link, seq))
+        self._settle()
         with self._lock:
             self._leader.prepare()
-        for reply in replies:
-            now = self._clock()
-            data = self._payload(link, reply)
-            if data is None:
-                continue
+
+    def _ended(self, link: FollowerLink, seq: int) -> None:
+        """Zenoh closed a get (on its own thread). Only the poll in flight needs to know:
+        its end means nobody answered. Any other's would wake the loop for nothing, once
+        per poll."""
+        if seq == self._flight:  # checked again on the loop, which owns ``_flight``
+            self._inbox.put((link, seq, None))
+
+    def _arrive(self, link: FollowerLink, seq: int, reply: zenoh.Reply | None) -> None:
+        """One thing a get brought: a reply for the core, or its end."""
+        now = self._clock()
+        current = seq == self._flight
+        if reply is None:  # Zenoh closed the get: if the poll is still out, nobody answered
+            if current:
+                with self._lock:
+                    events = self._leader.finish_poll(now)
+                self._flight = None
+                self._dispatch(events)
+            return
+        data = self._payload(link, reply)
+        if data is None:
+            return
+        if current:
             with self._lock:
                 request = self._leader.reply_and_poll(link.follower, data, now)
                 version = self._control_version
             if request is not None:
-                self._late.append((link, replies))
-                return self._send(request, version, now)
-            if self._take(link, data, now):
-                self._late.append((link, replies))
-                return None
-        with self._lock:  # closed with no valid reply: the core counts the poll unanswered
-            events = self._leader.finish_poll(self._clock())
-        self._dispatch(events)
-        return None
+                self._send(request, version, now)
+                return
+        with self._lock:
+            events = self._leader.accept_reply(link.follower, data, now)
+            if current and self._leader.in_flight is None:
+                self._flight = None
+        if events:
+            self._dispatch(events)
+
+    def _on_timer(self) -> None:
+        """The core's timer: the poll in flight is over if its deadline passed."""
+        with self._lock:
+            events = self._leader.on_timer(self._clock())
+            if self._leader.in_flight is None:
+                self._flight = None
+        if events:
+            self._dispatch(events)
 
     def _payload(self, link: FollowerLink, reply: zenoh.Reply) -> bytes | None:
         """A reply's bytes, or None for an error reply or one over the size limit (counted
@@ -266,15 +304,6 @@ class LeaderNode:
             return None
         return data
 
-    def _take(self, link: FollowerLink, data: bytes, now: float) -> bool:
-        """Hand one reply to the core; True if it completed the poll in flight."""
-        with self._lock:
-            events = self._leader.accept_reply(link.follower, data, now)
-            done = self._leader.in_flight is None
-        if events:
-            self._dispatch(events)
-        return done
-
     def _settle(self) -> None:
         """The core's second step for the last reply, and its delivery handed on."""
         with self._lock:
@@ -284,20 +313,6 @@ class LeaderNode:
         if self._delivered:
             self._hand_over()
 
-    def _drain_late(self) -> None:
-        """Replies still coming to gets whose poll is over, without waiting for any:
-        the core counts them (stale, or rejected if malformed)."""
-        open_gets = []
-        for link, replies in self._late:
-            try:
-                while (reply := replies.try_recv()) is not None:
-                    if (data := self._payload(link, reply)) is not None:
-                        self._take(link, data, self._clock())
-            except zenoh.ZError:  # closed: Zenoh has delivered all it will
-                continue
-            open_gets.append((link, replies))
-        self._late = open_gets
-
     def _dispatch(self, events: list[Event]) -> None:
         """Report bad input now; keep deliveries for ``_hand_over``."""
         for event in events:
@@ -305,6 +320,12 @@ class LeaderNode:
                 self._delivered.append(event)
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(self.keys.update(event.follower), event.reason)
+            elif isinstance(event, Silent):
+                log.warning("follower %s stopped answering (its last %d polls went "
+                            "unanswered): probing it alone now", event.follower, event.polls)
+            elif isinstance(event, Answering):
+                log.warning("follower %s answers again, after %.1f s", event.follower,
+                            event.silent_for)
             else:
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
 
@@ -330,11 +351,12 @@ class LeaderNode:
                     self._control_version += 1  # the newcomer needs the control now
                 else:
                     self._leader.remove_follower(follower)
+                    if self._leader.in_flight is None:  # its poll, if it was out, is over
+                        self._flight = None
             if joined:
                 if follower not in self._links:
                     self._links[follower] = FollowerLink.open(
-                        self._session, self.keys, follower, self.config.timeout
-                    )
+                        self._session, self.keys, follower, self.config.timeout)
                 log.info("follower %s joined", follower)
                 if self._on_join is not None:
                     _notify(self._on_join, follower)
@@ -344,13 +366,12 @@ class LeaderNode:
                 continue
             link.close()
             self._transport_errors.pop(follower, None)
-            log.info("follower %s left", follower)
+            log.warning("follower %s left (its liveliness token is gone)", follower)
             if self._on_leave is not None:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
-        self._drain_late()  # so that the stats count every late reply so far,
-        self._settle()  # and the last delivery
+        self._settle()  # so that the stats count the last delivery
         with self._lock:
             records = [
                 follower_stats(self._leader.stats(f, now), self._transport_errors[f])

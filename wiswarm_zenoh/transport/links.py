@@ -1,8 +1,16 @@
 """What the leader declares per follower: a querier for polls, publishers for stats and
-fresh updates. Declared once at join, so a poll costs no key or route set-up."""
+fresh updates. Declared at join, so a poll costs no key or route set-up.
+
+The querier's own timeout is the ceiling (``--timeout``), not the follower's adaptive
+timeout: the core's timer ends the poll at the adaptive deadline, and the get stays open
+until the ceiling, so a reply that comes after that deadline still reaches the core and
+teaches it the link is slower than measured (``core.poll_timing``). Replies go to the
+callback given with each poll, on Zenoh's own thread (``indirect=False``): the leader's
+loop then waits on one inbox for every poll's replies, late ones included."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -16,29 +24,31 @@ from wiswarm_zenoh.transport.keys import SwarmKeys
 class FollowerLink:
     follower: str
     key: str
-    querier: zenoh.Querier
+    session: zenoh.Session
     stats: zenoh.Publisher
     fresh: zenoh.Publisher
     listening: bool = False  # some subscriber matches ``fresh``
     _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
+    querier: zenoh.Querier | None = field(default=None, repr=False)
 
     @classmethod
     def open(cls, session: zenoh.Session, keys: SwarmKeys, follower: str,
-             timeout: float) -> FollowerLink:
+             ceiling: float) -> FollowerLink:
+        """Declare what polling ``follower`` needs; its gets end after ``ceiling`` s."""
         key = keys.update(follower)
         link = cls(
             follower=follower,
             key=key,
-            # ALL: a rogue queryable on the same key cannot hide the real follower.
-            # NONE: every reply is kept, not only the latest per key.
-            querier=session.declare_querier(
-                key, target=zenoh.QueryTarget.ALL,
-                consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout,
-            ),
+            session=session,
             stats=session.declare_publisher(
                 keys.stats(follower), encoding=zenoh.Encoding.APPLICATION_JSON
             ),
             fresh=session.declare_publisher(keys.fresh(follower)),
+            # ALL: a rogue queryable on the same key cannot hide the real follower.
+            # NONE: every reply is kept, not only the latest per key.
+            querier=session.declare_querier(
+                key, target=zenoh.QueryTarget.ALL,
+                consolidation=zenoh.ConsolidationMode.NONE, timeout=ceiling),
         )
         # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
         # with no thread kept per follower for it.
@@ -52,10 +62,21 @@ class FollowerLink:
         link.listening = status.matching
         return link
 
+    def poll(self, payload: bytes, on_reply: Callable[[zenoh.Reply], object],
+             on_end: Callable[[], object]) -> None:
+        """Send a poll: ``on_reply`` gets each reply and ``on_end`` is called once Zenoh
+        closes the get (all answered, nobody there, or the ceiling passed)."""
+        assert self.querier is not None, "polled after close()"
+        self.querier.get(zenoh.handlers.Callback(on_reply, on_end, indirect=False),
+                         payload=payload)
+
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
         self.listening = status.matching
 
     def close(self) -> None:
         if self._listener is not None:
             undeclare(self._listener)
-        undeclare(self.fresh, self.stats, self.querier)
+        if self.querier is not None:
+            undeclare(self.querier)
+            self.querier = None
+        undeclare(self.fresh, self.stats)

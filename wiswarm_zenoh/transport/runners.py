@@ -26,7 +26,9 @@ from wiswarm_zenoh.transport.frames import (
     capture_time,
 )
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
+from wiswarm_zenoh.transport.router_watch import RouterWatch
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
+from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
 log = logging.getLogger(__name__)
 
@@ -91,8 +93,13 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
 
 
 def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = None,
-               duration: float | None = None) -> None:
-    """A Zenoh router (the session is opened in router mode) until stopped."""
+               duration: float | None = None, log_verbosity: int | None = None) -> None:
+    """A Zenoh router (the session is opened in router mode) until stopped. With
+    ``log_verbosity`` (a ``wiswarm router`` process of its own), Zenoh's log is started
+    here, showing what access control refuses (see ``zenoh_log``): it takes over the
+    process's stdout, which only a process that is nothing but a router may do."""
+    if log_verbosity is not None:
+        init_zenoh_log(log_verbosity, denials=True)
     with spec.open() as session:
         log.info("router %s up, listening on %s", session.zid(), ", ".join(spec.listen) or
                  "Zenoh's default (tcp/[::]:7447)")
@@ -123,9 +130,10 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     a UAV of its own): spares the CPU of a process per follower in experiments. Stops at
     the first follower's ``duration``."""
     with contextlib.ExitStack() as stack:
-        feeds = []
+        feeds, watches = [], []
         for option in options:
             session = stack.enter_context(spec.open())
+            watches.append(RouterWatch(session, f"follower {option.follower_id}"))
             node = stack.enter_context(
                 FollowerNode(session, option.swarm, option.follower_id, option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
@@ -135,7 +143,12 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
             stack.callback(frames.stop)
         if ready is not None:
             ready.set()
-        wait_until_stopped(stop, options[0].duration if options else None)
+
+        def check_routers() -> None:
+            for watch in watches:
+                watch.check()
+
+        wait_until_stopped(stop, options[0].duration if options else None, check_routers)
         for option, node, frames in feeds:
             log.info("follower %s: %d frames offered, %d polls answered",
                      option.follower_id, frames.frames, node.polls)
@@ -199,8 +212,14 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
         ) as node:
             if ready is not None:
                 ready.set()
-            wait_until_stopped(stop, options.duration, None if show is None else
-                               lambda: show(node))
+            watch = RouterWatch(session, f"leader of {options.swarm!r}")
+
+            def tick() -> None:
+                watch.check()
+                if show is not None:
+                    show(node)
+
+            wait_until_stopped(stop, options.duration, tick)
     finally:
         if record is not None:
             record.close()

@@ -1,12 +1,16 @@
-"""Zenoh configuration from the command line, with the flags of zenoh-python's examples.
+"""Zenoh configuration from the command line, with the flags of zenoh-python's examples
+(``wiswarm_zenoh.cli.arguments.add_zenoh_arguments``).
 
 Every problem (a bad endpoint, an unknown ``--cfg`` key, an unreadable ``-c`` file, a
 session that cannot open) becomes one ``UsageError`` line: the user must fix a flag.
+Endpoints are checked before Zenoh sees them: it would take a bad one only at session
+open, or not at all (a peer retries a connect endpoint forever, in the background).
 """
 
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import json
 import re
 import socket
@@ -16,9 +20,14 @@ from dataclasses import dataclass
 import zenoh
 
 from wiswarm_zenoh.cli.usage import UsageError
+from wiswarm_zenoh.security.checks import check_tls
 
 MODES = ("peer", "client", "router")
 LOCAL_ROUTER = "tcp/127.0.0.1:7447"
+# The link protocols of this zenoh-python build that a session can use (unixpipe, vsock
+# and serial are not compiled in: Zenoh says "Unicast not supported" at open).
+PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws", "unixsock-stream")
+_LABEL = re.compile(r"^(?!-)[A-Za-z0-9-]{1,63}(?<!-)$")
 _RUST_SUFFIX = re.compile(r"\s+at /\S+\.rs:\d+\.?\s*$")
 _JSON5_MESSAGE = re.compile(r'(?:msg: |Str\()"((?:[^"\\]|\\.)*)"')
 
@@ -32,20 +41,62 @@ def zenoh_message(exc: BaseException) -> str:
     return " ".join(text.split()) or type(exc).__name__
 
 
-def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -> None:
-    """The session flags: -m/-e/-l/-c, --cfg KEY:VALUE, --no-multicast-scouting."""
-    group = parser.add_argument_group("zenoh session")
-    group.add_argument("-m", "--mode", choices=list(modes), help="the Zenoh session mode")
-    group.add_argument("-e", "--connect", metavar="ENDPOINT", action="append", default=[],
-                       help="endpoint to connect to, e.g. tcp/HOST:7447 (repeatable)")
-    group.add_argument("-l", "--listen", metavar="ENDPOINT", action="append", default=[],
-                       help="endpoint to listen on (repeatable)")
-    group.add_argument("-c", "--config", metavar="FILE", help="a Zenoh JSON5 configuration file")
-    group.add_argument("--cfg", metavar="KEY:VALUE", action="append", default=[],
-                       help="set one configuration value (VALUE is JSON5), "
-                            "e.g. --cfg 'transport/unicast/max_links:2'")
-    group.add_argument("--no-multicast-scouting", action="store_true",
-                       help="do not discover peers and routers by multicast")
+def check_host(host: str, resolve: bool = True) -> str:
+    """An IP address (IPv6 in brackets too) or a host name that, with ``resolve``,
+    resolves here: a typo is refused now, not as a link that never comes up."""
+    bare = host[1:-1] if host.startswith("[") and host.endswith("]") else host
+    try:
+        ipaddress.ip_address(bare)
+        return host
+    except ValueError:
+        pass
+    if re.fullmatch(r"[0-9.]+", host):
+        raise ValueError(f"{host!r} is not an IPv4 address (four numbers of 0-255)")
+    labels = host.removesuffix(".").split(".")
+    if len(host) > 253 or not all(_LABEL.match(label) for label in labels):
+        raise ValueError(f"{host[:60]!r} is not a host name or IP address")
+    if resolve:
+        try:
+            socket.getaddrinfo(host, None)
+        except OSError:
+            raise ValueError(f"host {host!r} does not resolve") from None
+    return host
+
+
+def split_host_port(text: str, lowest_port: int = 1) -> tuple[str, int]:
+    """``HOST:PORT`` (``[v6]:PORT`` too) with a port in ``[lowest_port, 65535]`` and a
+    host that ``check_host`` takes."""
+    host, sep, port = text.rpartition(":")
+    if not sep or not host or not port.isdigit() or not lowest_port <= int(port) <= 65535:
+        raise ValueError(f"{text[:60]!r} must look like HOST:PORT, PORT in "
+                         f"[{lowest_port}, 65535]")
+    return check_host(host), int(port)
+
+
+def split_key_value(item: str) -> tuple[str, str]:
+    """``KEY:VALUE`` of ``--cfg``, both non-empty."""
+    key, sep, value = item.partition(":")
+    if not sep or not key or not value:
+        raise ValueError(f"--cfg expects KEY:VALUE, got {item[:60]!r}")
+    return key, value
+
+
+def check_endpoint(endpoint: str, listen: bool = False) -> str:
+    """``PROTOCOL/HOST:PORT[?metadata][#config]`` (``unixsock-stream/PATH``) with a
+    protocol of PROTOCOLS and a host that resolves; port 0 (any free one) only to listen."""
+    protocol, sep, rest = endpoint.partition("/")
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    if not sep or not address:
+        raise ValueError(f"endpoint {endpoint[:60]!r} must look like tcp/HOST:PORT")
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"endpoint {endpoint[:60]!r}: protocol {protocol!r} is not one of "
+                         f"{', '.join(PROTOCOLS)}")
+    if protocol != "unixsock-stream":
+        try:
+            split_host_port(address, lowest_port=0 if listen else 1)
+        except ValueError as exc:
+            raise ValueError(f"endpoint {endpoint[:60]!r}: {exc}") from None
+    return endpoint
 
 
 @dataclass(frozen=True)
@@ -114,6 +165,12 @@ def _insert(config: zenoh.Config, key: str, value: str, origin: str) -> None:
         raise UsageError(f"{origin}: {zenoh_message(exc)}") from None
 
 
+# How often a node tries its router again once the link is gone: from 100 ms, doubling
+# to at most 500 ms (Zenoh's own default: 1 s to 4 s), so a restarted router is rejoined
+# within about half a second of listening again. A config file's own setting wins.
+RECONNECT = "{period_init_ms: 100, period_max_ms: 500, period_increase_factor: 2}"
+
+
 def build_config(
     *,
     mode: str | None,
@@ -131,13 +188,19 @@ def build_config(
             config = zenoh.Config.from_file(config_file)
         except zenoh.ZError as exc:
             raise UsageError(f"config file {config_file}: {zenoh_message(exc)}") from None
+    if config.get_json("connect/retry") == "null":  # the file leaves it to us
+        _insert(config, "connect/retry", RECONNECT, "reconnection defaults")
     if mode is not None:
         if mode not in MODES:
             raise UsageError(f"mode must be one of {', '.join(MODES)}, got {mode!r}")
         _insert(config, "mode", json.dumps(mode), "--mode")
-    for endpoint in (*connect, *listen):
-        if "/" not in endpoint:
-            raise UsageError(f"endpoint {endpoint!r} must look like tcp/HOST:PORT")
+    try:
+        for endpoint in connect:
+            check_endpoint(endpoint)
+        for endpoint in listen:
+            check_endpoint(endpoint, listen=True)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
     if connect:
         _insert(config, "connect/endpoints", json.dumps(list(connect)), "--connect")
     if listen:
@@ -145,10 +208,12 @@ def build_config(
     if not multicast_scouting:
         _insert(config, "scouting/multicast/enabled", "false", "--no-multicast-scouting")
     for item in cfg:
-        key, sep, value = item.partition(":")
-        if not sep or not key or not value:
-            raise UsageError(f"--cfg expects KEY:VALUE, got {item!r}")
+        try:
+            key, value = split_key_value(item)
+        except ValueError as exc:
+            raise UsageError(str(exc)) from None
         _insert(config, key, value, f"--cfg {key}")
+    check_tls(config)  # a bad certificate named here, not as a TLS error at open
     return config
 
 

@@ -1,0 +1,63 @@
+"""Faults on real ``wiswarm`` processes (loopback, all clients of the router): what the
+others keep getting, and what the logs say."""
+
+from __future__ import annotations
+
+import signal
+import time
+from collections import Counter
+from pathlib import Path
+
+from wiswarm_zenoh.testbed.faults import FaultySwarm, rate
+
+WAIT = 30.0
+
+
+def test_a_stopped_follower_costs_the_others_little_and_is_seen(tmp_path: Path) -> None:
+    with FaultySwarm(tmp_path, ["f0", "f1", "f2"]) as swarm:
+        swarm.wait_deliveries(["f0", "f1", "f2"], 20)
+        time.sleep(1.5)  # the window the others' rate is compared with
+        start = time.time()
+        swarm.followers["f2"].signal(signal.SIGSTOP)
+        time.sleep(2.0)  # the fault itself: stopped for this long
+        end = time.time()
+        swarm.followers["f2"].signal(signal.SIGCONT)
+        assert swarm.leader is not None
+        swarm.leader.wait_for("follower f2 stopped answering", timeout=WAIT)
+        swarm.wait_deliveries(["f2"], 1, after=end, timeout=WAIT)
+        swarm.leader.wait_for("follower f2 answers again", timeout=WAIT)
+        done = swarm.deliveries()
+    # Before: 0.6 % (every poll of f2 waited the fixed 0.3 s timeout); the target, 80 %,
+    # is the benchmark's; here, with margin for a busy machine, half.
+    assert rate(done, ["f0", "f1"], start, end) >= 0.5 * rate(done, ["f0", "f1"], start - 1.5,
+                                                               start)
+
+
+def test_the_swarm_rejoins_a_restarted_router_and_says_so(tmp_path: Path) -> None:
+    names = ["f0", "f1"]
+    with FaultySwarm(tmp_path, names) as swarm:
+        swarm.wait_deliveries(names, 20)
+        swarm.kill_router()
+        nodes = [swarm.leader, *swarm.followers.values()]
+        for node in nodes:
+            assert node is not None
+            node.wait_for("lost its router", timeout=WAIT)
+        back = swarm.start_router()
+        swarm.wait_deliveries(names, 5, after=back, timeout=WAIT)
+        for node in nodes:
+            assert node is not None
+            node.wait_for("router reached again", timeout=WAIT)
+
+
+def test_a_follower_killed_mid_update_leaves_the_others_whole(tmp_path: Path) -> None:
+    names = ["f0", "f1", "f2"]
+    with FaultySwarm(tmp_path, names, fragment_size=8192) as swarm:  # 7 fragments a frame
+        swarm.wait_deliveries(names, 20)
+        killed = time.time()
+        swarm.followers["f2"].signal(signal.SIGKILL)
+        assert swarm.leader is not None
+        swarm.leader.wait_for("follower f2 left", timeout=WAIT)
+        swarm.wait_deliveries(["f0", "f1"], 20, after=killed, timeout=WAIT)
+        done = swarm.deliveries()
+    twice = [key for key, n in Counter((d.follower, d.update_seq) for d in done).items() if n > 1]
+    assert twice == []

@@ -1,0 +1,36 @@
+"""Access control's trace log reduced to its refusals (lines as Zenoh 1.10 writes them)."""
+
+from __future__ import annotations
+
+from wiswarm_zenoh.transport.acl_log import TABLE_ROWS, DenialFilter
+
+HEAD = (b"\x1b[2m2026-11-23T11:35:12.048846Z\x1b[0m \x1b[35mTRACE\x1b[0m rx-0 ThreadId(08) "
+        b"\x1b[2mzenoh::net::routing::interceptor::access_control\x1b[0m\x1b[2m:\x1b[0m ")
+F2 = b"84a32dcc2615176832099298f74274be"
+FACE = b"Interface(lo)+CertCommonName(f2)+Transport(Tls)+" + F2
+
+
+def _decision(verdict: bytes, message: bytes, key: bytes, cached: bool = False) -> bytes:
+    who = b"Using cached result: " + F2 if cached else F2 + b" on " + FACE
+    return HEAD + who + b" is " + verdict + b" to " + message + b" (ingress) on " + key + b"\n"
+
+
+def test_refusals_are_shown_once_each_and_allowed_messages_and_tables_not_at_all() -> None:
+    log = [
+        HEAD + b"ACL (ingress): caching permissions for `wiswarm/S/f1/update` ...\n",
+        *[_decision(b"unauthorized", b"Query", b"wiswarm/S/f1/update")] * TABLE_ROWS,
+        _decision(b"unauthorized", b"Declare Queryable", b"wiswarm/S/f1/update", cached=True),
+        _decision(b"authorized", b"Declare Subscriber", b"wiswarm/S/control", cached=True),
+        _decision(b"authorized", b"Put", b"wiswarm/S/f2/update"),
+        _decision(b"unauthorized", b"Put", b"wiswarm/S/control"),
+        b"wiswarm router: listening on tls/127.0.0.1:7447\n",
+    ]
+    denials = DenialFilter()
+    shown = [line for line in map(denials.feed, log) if line is not None]
+    assert shown == [
+        b"2026-11-23T11:35:12.048846Z  WARN access control refused f2: Declare Queryable "
+        b"(ingress) on wiswarm/S/f1/update\n",
+        b"2026-11-23T11:35:12.048846Z  WARN access control refused f2: Put (ingress) on "
+        b"wiswarm/S/control\n",
+        b"wiswarm router: listening on tls/127.0.0.1:7447\n",
+    ]

@@ -1,0 +1,61 @@
+"""Access control's trace log, reduced to what it refused: one line per refusal.
+
+Zenoh 1.10 logs access-control decisions at trace level only, one line per message
+allowed as well as refused: ``<zid> on <face> is (un)authorized to Put (ingress) on
+<key>``, or, for a key a node declared on, ``Using cached result: <zid> is ...``. When a
+node first declares something on a key, a table of its permissions there (every message
+type in turn) follows ``caching permissions for `<key>` ``: what it *may* do, not what
+it tried, so the table is dropped. The face names the certificate's common name, which
+is remembered for the cached results, whose lines carry only the session id.
+"""
+
+from __future__ import annotations
+
+import re
+
+ANSI = re.compile(rb"\x1b\[[0-9;]*m")
+DECISION = re.compile(
+    rb"^(?P<time>\S+)\s.*?ThreadId\((?P<thread>\d+)\).*?access_control: "
+    rb"(?P<cached>Using cached result: )?(?P<zid>[0-9a-f]+) (?:on (?P<face>\S+) )?"
+    rb"is (?P<verdict>un)?authorized to (?P<message>.+) \((?P<flow>ingress|egress)\) "
+    rb"on (?P<key>\S+)$"
+)
+TABLE = re.compile(rb"ThreadId\((?P<thread>\d+)\).*access_control: ACL \(\w+\): "
+                   rb"caching permissions for `")
+COMMON_NAME = re.compile(rb"CertCommonName\(([^)]*)\)")
+ALLOWED = b" is authorized to "
+TABLE_ROWS = 9  # message types in a table: query, reply, put, delete, three declarations,
+# liveliness query and liveliness subscriber (Zenoh 1.10)
+
+
+class DenialFilter:
+    """Feed Zenoh's log lines; get back the lines to show: refusals as one readable line
+    each, other log lines unchanged, allowed messages and permission tables not at all."""
+
+    def __init__(self) -> None:
+        self._table_rows: dict[bytes, int] = {}  # by thread: rows of a table still to come
+        self._names: dict[bytes, bytes] = {}  # session id -> certificate common name
+
+    def feed(self, line: bytes) -> bytes | None:
+        if ALLOWED in line and not any(self._table_rows.values()):
+            return None  # most lines, by far: a message let through (no table to count)
+        plain = ANSI.sub(b"", line).rstrip(b"\r\n")
+        decision = DECISION.match(plain)
+        if decision is None:
+            table = TABLE.search(plain)
+            if table is None:
+                return line
+            self._table_rows[table["thread"]] = TABLE_ROWS
+            return None
+        if decision["face"] is not None and (name := COMMON_NAME.search(decision["face"])):
+            self._names[decision["zid"]] = name[1]
+        thread = decision["thread"]
+        if not decision["cached"] and self._table_rows.get(thread):
+            self._table_rows[thread] -= 1
+            return None
+        if not decision["verdict"]:
+            return None
+        who = self._names.get(decision["zid"], decision["zid"])
+        return (b"%s  WARN access control refused %s: %s (%s) on %s\n"
+                % (decision["time"], who, decision["message"], decision["flow"],
+                   decision["key"]))
