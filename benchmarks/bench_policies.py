@@ -2,9 +2,10 @@
 
 Prints two tables (medians in microseconds) for N = 14, 100, 1000, 10000 followers:
 1. ``policy.choose(w, p, h)`` alone, on random arrays from a seeded generator;
-2. ``Leader.poll`` + ``Leader.on_reply`` (one single-fragment delivery), i.e. the policy
-   plus everything the leader does around it, with and without control information
-   (one waypoint per follower, broadcast with every poll).
+2. ``Leader.next_poll`` + ``Leader.receive_reply`` and its events drained (one
+   single-fragment delivery), i.e. the policy plus everything the leader does around
+   it, with and without control information (one waypoint per follower, broadcast
+   with every poll).
 The issue's target: whittle under 50 microseconds per decision at N = 1000.
 """
 
@@ -17,7 +18,7 @@ import time
 
 import numpy as np
 
-from wiswarm_zenoh.core import POLICIES, Follower, Leader, LeaderConfig, make_policy
+from wiswarm_zenoh.core import POLICIES, Follower, Leader, LeaderConfig, drain, make_policy
 
 SIZES = (14, 100, 1000, 10000)
 TARGET_US = 50.0
@@ -41,7 +42,8 @@ def policy_median_us(name: str, n: int, repeats: int, seed: int) -> float:
 
 
 def cycle_medians_us(n: int, repeats: int, seed: int, control: bool) -> tuple[float, float]:
-    """Median times of ``poll`` and of ``on_reply`` (a delivered 1 kB update)."""
+    """Median times of ``next_poll`` and of ``receive_reply`` with its events drained (a
+    delivered 1 kB update)."""
     rng = random.Random(seed)
     leader = Leader(LeaderConfig(policy="whittle"), rng)
     followers = {f"f{i}": Follower(f"f{i}") for i in range(n)}
@@ -55,7 +57,7 @@ def cycle_medians_us(n: int, repeats: int, seed: int, control: bool) -> tuple[fl
     for k in range(repeats + 20):  # the first 20 are warm-up
         now += 0.001
         start = time.perf_counter()
-        request = leader.poll(now)
+        request = leader.next_poll(now)
         polled = time.perf_counter()
         assert request is not None
         follower = followers[request.follower]
@@ -63,7 +65,8 @@ def cycle_medians_us(n: int, repeats: int, seed: int, control: bool) -> tuple[fl
         raw = follower.on_poll(request.payload, now + 0.0002, now + 0.0002)
         now += 0.0004
         answered = time.perf_counter()
-        leader.on_reply(request.follower, raw, now)
+        leader.receive_reply(request.follower, raw, now)
+        drain(leader)
         done = time.perf_counter()
         if k >= 20:
             polls.append(polled - start)
@@ -88,7 +91,7 @@ def main() -> None:
         print(f"{name:>14}" + "".join(f"{c:12.2f}" for c in cells))
 
     print("\nLeader cycle (whittle), median microseconds per decision")
-    print(f"{'N':>7}{'poll':>10}{'on_reply':>10}{'total':>10}"
+    print(f"{'N':>7}{'poll':>10}{'reply':>10}{'total':>10}"
           f"{'poll+ctl':>10}{'total+ctl':>10}")
     for n in SIZES:
         repeats = max(200, args.repeats // (1 if n < 10000 else 4))

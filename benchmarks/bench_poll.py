@@ -155,7 +155,7 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
                  control_period: float) -> tuple[float, list[dict[str, Any]], float]:
     """(b): polls/s of the LeaderNode, its per-follower stats at the end, and the share
-    of its polls sent on the fast path (``reply_and_poll``)."""
+    of its polls sent on a pick made while the poll before was out (``fast_polls``)."""
     joined: list[str] = []
     everyone = threading.Event()
 

@@ -11,7 +11,16 @@ import random
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from wiswarm_zenoh.core import Delivered, Event, Follower, FollowerConfig, Leader, LeaderConfig
+from wiswarm_zenoh.core import (
+    Delivered,
+    Event,
+    Follower,
+    FollowerConfig,
+    Leader,
+    LeaderConfig,
+    PollRequest,
+    drain,
+)
 
 
 @dataclass
@@ -31,6 +40,7 @@ class MemoryLink:
     payload_bytes: int = 1000
     now: float = 0.0
     _next_sample: float = 0.0
+    _request: PollRequest | None = None  # sent the moment the poll before it ended
 
     def __post_init__(self) -> None:
         for fid in self.followers:
@@ -43,19 +53,23 @@ class MemoryLink:
             self._next_sample += self.sample_interval
 
     def step(self) -> list[Event]:
-        """One poll: sent, answered or lost, and its outcome consumed by the leader."""
+        """One poll: answered or lost; the next poll goes out as it ends, as a shell
+        does, and then the leader's events are taken."""
         self._sample_until(self.now)
-        request = self.leader.poll(self.now)
+        request = self._request or self.leader.next_poll(self.now)
         if request is None:
             raise RuntimeError("no follower to poll")
         arrival = self.now + self.latency
         if self.rng.random() < self.loss.get(request.follower, 0.0):
             self.now = request.deadline
-            return self.leader.on_timer(self.now)
-        self._sample_until(arrival)
-        reply = self.followers[request.follower].on_poll(request.payload, arrival, arrival)
-        self.now = arrival + self.latency
-        return self.leader.on_reply(request.follower, reply, self.now)
+            self.leader.handle_timer(self.now)
+        else:
+            self._sample_until(arrival)
+            reply = self.followers[request.follower].on_poll(request.payload, arrival, arrival)
+            self.now = arrival + self.latency
+            self.leader.receive_reply(request.follower, reply, self.now)
+        self._request = self.leader.next_poll(self.now)
+        return drain(self.leader)
 
     def run(self, duration: float) -> list[Event]:
         events: list[Event] = []

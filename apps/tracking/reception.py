@@ -59,7 +59,7 @@ class Reception:
     def on_delivered(self, event: Delivered) -> None:
         """The LeaderNode's delivery callback."""
         self.receive(event.follower, event.payload, event.generated_at,
-                     event.generated_at + event.age)
+                     event.delivered_at)
 
     def receive(self, uav: str, payload: bytes, generated_at: float,
                 received_at: float) -> None:

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-from wiswarm_zenoh.core import Event, Follower, Leader, PollRequest
+from wiswarm_zenoh.core import Event, Follower, Leader, PollRequest, drain
 from wiswarm_zenoh.core.wire import Poll, Reply, decode_poll, decode_reply
 
 
 def poll(leader: Leader, now: float) -> PollRequest:
     """A poll that must exist (a follower is known and nothing is in flight)."""
-    request = leader.poll(now)
+    request = leader.next_poll(now)
     assert request is not None
     return request
 
@@ -29,7 +29,7 @@ def exchange(
     request = poll(leader, now)
     at_follower = now + latency + clock_offset
     raw = followers[request.follower].on_poll(request.payload, at_follower, at_follower)
-    events = leader.on_reply(request.follower, raw, now + 2 * latency)
+    events = on_reply(leader, request.follower, raw, now + 2 * latency)
     return request, decode_reply(raw), events
 
 
@@ -47,4 +47,16 @@ def answer(
     """The follower answers ``request`` (sent at ``now``) over a lossless link."""
     at = now + latency
     raw = followers[request.follower].on_poll(request.payload, at, at)
-    return leader.on_reply(request.follower, raw, at + latency)
+    return on_reply(leader, request.follower, raw, at + latency)
+
+
+def on_reply(leader: Leader, follower: str, data: bytes, now: float) -> list[Event]:
+    """A reply fed to the leader, and every event it then has."""
+    leader.receive_reply(follower, data, now)
+    return drain(leader)
+
+
+def on_timer(leader: Leader, now: float) -> list[Event]:
+    """The leader's timer fired at ``now``, and every event it then has."""
+    leader.handle_timer(now)
+    return drain(leader)

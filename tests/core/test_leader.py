@@ -22,7 +22,7 @@ from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fragments import checksum
 from wiswarm_zenoh.core.wire import FragmentData, Reply, encode_reply
 
-from .drive import answer, exchange, poll, poll_message
+from .drive import answer, exchange, on_reply, on_timer, poll, poll_message
 
 
 def _setup(*ids: str, config: LeaderConfig | None = None,
@@ -55,13 +55,13 @@ def _aoi(leader: Leader, fid: str, now: float) -> tuple[float, ...]:
 
 def test_poll_goes_to_the_first_joined_and_one_at_a_time() -> None:
     leader, _ = _setup("a", "b", config=LeaderConfig(timeout=0.25))
-    assert Leader().poll(0.0) is None
+    assert Leader().next_poll(0.0) is None
     request = poll(leader, 0.0)
     assert (request.follower, request.poll_seq, request.deadline) == ("a", 1, 0.25)
     msg = poll_message(request)
     assert (msg.seq, msg.leader_time, msg.ack, msg.want) == (1, 0.0, None, "next")
-    assert leader.poll(0.1) is None
-    assert leader.in_flight == "a" and leader.next_timer() == 0.25
+    assert leader.next_poll(0.1) is None
+    assert leader.in_flight == "a" and leader.get_timer() == 0.25
     assert leader.followers == ["a", "b"]
 
 
@@ -73,7 +73,7 @@ def test_reply_delivers_the_update_on_the_leader_clock() -> None:
     s = leader.stats("a", 1.002)
     assert (s.polls, s.deliveries, s.timeouts, s.errors, s.stale) == (1, 1, 0, 0, 0)
     assert s.aoi_s == pytest.approx(0.502)
-    assert s.p_hat == 1.0 and leader.next_timer() is None
+    assert s.p_hat == 1.0 and leader.get_timer() is None
     assert exchange(leader, followers, 1.1)[2] == []  # nothing new: answered, no event
     assert poll_message(poll(leader, 1.2)).ack == (1, 0)
 
@@ -99,25 +99,27 @@ def test_asymmetric_delays_use_the_fastest_exchange() -> None:
         f.offer(bytes([k]), t1 + 5.0)
         request = poll(leader, t1)
         raw = f.on_poll(request.payload, t1 + up + 5.0, t1 + up + 5.0)
-        leader.on_reply("a", raw, t1 + up + down)
+        on_reply(leader, "a", raw, t1 + up + down)
     assert leader.stats("a", 30.0).clock_offset_s == pytest.approx(5.0)
 
 
-def test_timeout_lowers_p_hat_and_finish_poll_ends_a_poll() -> None:
-    leader, followers = _setup("a", config=LeaderConfig(window=20, prior_p=1.0, timeout=0.3))
+def test_timeout_lowers_p_hat_and_only_the_timer_ends_an_unanswered_poll() -> None:
+    leader, followers = _setup("a", config=LeaderConfig(window=20, prior_p=1.0, timeout=0.3,
+                                                        adaptive_timeout=False))
     request = poll(leader, 0.0)
-    assert leader.on_timer(0.29) == []
-    assert leader.on_timer(0.3) == [TimedOut("a", request.poll_seq)]
-    assert leader.on_timer(0.4) == []
+    assert on_timer(leader, 0.29) == []
+    assert on_timer(leader, 0.3) == [TimedOut("a", request.poll_seq)]
+    assert on_timer(leader, 0.4) == []
     assert leader.stats("a", 0.3).p_hat == pytest.approx(0.95)
     request = poll(leader, 1.0)
-    assert leader.finish_poll(1.05) == [TimedOut("a", request.poll_seq)]
-    assert leader.finish_poll(1.06) == []
+    assert leader.get_timer() == pytest.approx(1.3)
+    assert on_timer(leader, 1.3) == [TimedOut("a", request.poll_seq)]
     s = leader.stats("a", 2.0)
     assert (s.timeouts, s.polls) == (2, 2)
     assert s.p_hat == pytest.approx(0.9)
     exchange(leader, followers, 2.0)
-    assert leader.finish_poll(2.01) == []  # a valid reply came: answered
+    assert leader.get_timer() is None
+    assert on_timer(leader, 2.5) == []  # a valid reply came: answered
     assert leader.stats("a", 2.1).p_hat == pytest.approx(0.9)
     assert leader.stats("a", 2.1).timeouts == 2
 
@@ -126,19 +128,19 @@ def test_reply_after_the_timeout_is_stale_and_lengthens_the_next_timeout() -> No
     leader, followers = _setup("a")
     followers["a"].offer(b"x", 0.0)
     first = poll(leader, 0.0)  # a quick answer: the timeout shrinks to the floor
-    leader.on_reply("a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
+    on_reply(leader, "a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
     request = poll(leader, 1.0)
     assert request.deadline == pytest.approx(1.0 + leader.config.timeout_floor)
     raw = followers["a"].on_poll(request.payload, 1.1, 1.1)
-    leader.on_timer(request.deadline)
+    on_timer(leader, request.deadline)
     before = _aoi(leader, "a", 2.0)
-    assert leader.on_reply("a", raw, 1.5) == []  # late, not bad: nothing to report
+    assert on_reply(leader, "a", raw, 1.5) == []  # late, not bad: nothing to report
     assert _aoi(leader, "a", 2.0) == before
     assert leader.stats("a", 2.0).stale == 1
     # twice the late one, up to the ceiling
     assert poll(leader, 2.0).deadline == pytest.approx(2.0 + min(2 * 0.5, leader.config.timeout))
     again = followers["a"].on_poll(request.payload, 2.1, 2.1)  # the same late reply again
-    assert leader.on_reply("a", again, 2.2) == [Stale("a", "reply to poll 2, not the one "
+    assert on_reply(leader, "a", again, 2.2) == [Stale("a", "reply to poll 2, not the one "
                                                           "in flight")]
 
 
@@ -150,14 +152,14 @@ def test_a_late_reply_to_an_earlier_timed_out_poll_still_lengthens_the_timeout()
     leader, followers = _setup("a")
     followers["a"].offer(b"x", 0.0)
     first = poll(leader, 0.0)
-    leader.on_reply("a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
+    on_reply(leader, "a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
     sent = []
     for k in range(3):
         request = poll(leader, 1.0 + k)
         sent.append(request)
-        leader.on_timer(request.deadline)
+        on_timer(leader, request.deadline)
     raw = followers["a"].on_poll(sent[0].payload, 1.2, 1.2)
-    assert leader.on_reply("a", raw, 3.3) == []  # late, not bad: nothing to report
+    assert on_reply(leader, "a", raw, 3.3) == []  # late, not bad: nothing to report
     assert poll(leader, 4.0).deadline == pytest.approx(4.0 + leader.config.timeout)
 
 def test_duplicate_reply_is_stale() -> None:
@@ -165,8 +167,8 @@ def test_duplicate_reply_is_stale() -> None:
     followers["a"].offer(b"x", 0.0)
     request = poll(leader, 1.0)
     raw = followers["a"].on_poll(request.payload, 1.001, 1.001)
-    assert isinstance(leader.on_reply("a", raw, 1.002)[0], Delivered)
-    events = leader.on_reply("a", raw, 1.003)
+    assert isinstance(on_reply(leader, "a", raw, 1.002)[0], Delivered)
+    events = on_reply(leader, "a", raw, 1.003)
     assert len(events) == 1 and isinstance(events[0], Stale)
     s = leader.stats("a", 1.003)
     assert (s.deliveries, s.stale, s.errors) == (1, 1, 0)
@@ -177,7 +179,7 @@ def test_reply_from_a_follower_not_polled_is_stale() -> None:
     request = poll(leader, 0.0)
     assert request.follower == "a"
     raw_b = _reply("b", request.poll_seq, None)  # right number, wrong key
-    assert isinstance(leader.on_reply("b", raw_b, 0.01)[0], Stale)
+    assert isinstance(on_reply(leader, "b", raw_b, 0.01)[0], Stale)
     assert leader.stats("b", 0.01).stale == 1
     assert leader.in_flight == "a"
 
@@ -185,7 +187,7 @@ def test_reply_from_a_follower_not_polled_is_stale() -> None:
 def test_reply_claiming_another_sender_is_rejected() -> None:
     leader, _ = _setup("a", "b")
     request = poll(leader, 0.0)
-    events = leader.on_reply("a", _reply("b", request.poll_seq, None), 0.01)
+    events = on_reply(leader, "a", _reply("b", request.poll_seq, None), 0.01)
     assert len(events) == 1 and isinstance(events[0], Rejected)
     assert leader.stats("a", 0.01).errors == 1
     assert leader.in_flight == "a"
@@ -193,7 +195,7 @@ def test_reply_claiming_another_sender_is_rejected() -> None:
 
 def test_reply_from_a_stranger_is_stale_and_counted() -> None:
     leader, _ = _setup("a")
-    events = leader.on_reply("zz", b"\x00", 0.0)
+    events = on_reply(leader, "zz", b"\x00", 0.0)
     assert len(events) == 1 and isinstance(events[0], Stale)
     assert leader.unknown_replies == 1
 
@@ -205,19 +207,19 @@ def test_garbage_is_counted_as_an_error_without_changing_aoi(garbage: object) ->
     exchange(leader, followers, 0.5)
     before = _aoi(leader, "a", 3.0)
     request = poll(leader, 1.0)
-    events = leader.on_reply("a", garbage, 1.01)  # type: ignore[arg-type]
+    events = on_reply(leader, "a", garbage, 1.01)  # type: ignore[arg-type]
     assert len(events) == 1 and isinstance(events[0], Rejected)
     assert leader.stats("a", 3.0).errors == 1
     assert _aoi(leader, "a", 3.0) == before
     assert leader.in_flight == "a"  # still waiting for a valid reply
-    assert leader.on_reply("a", _reply("a", request.poll_seq, None), 1.02) == []
+    assert on_reply(leader, "a", _reply("a", request.poll_seq, None), 1.02) == []
 
 
 def test_checksum_mismatch_is_rejected_and_the_leader_asks_for_a_fresh_update() -> None:
     leader, _ = _setup("a")
     request = poll(leader, 1.0)
     frag = FragmentData(1, 0.5, 0, 1, 4, checksum(b"abcd") ^ 1, b"abcd")
-    events = leader.on_reply("a", _reply("a", request.poll_seq, frag), 1.01)
+    events = on_reply(leader, "a", _reply("a", request.poll_seq, frag), 1.01)
     assert len(events) == 1 and isinstance(events[0], Rejected)
     assert "checksum" in events[0].reason
     s = leader.stats("a", 1.01)
@@ -231,7 +233,7 @@ def test_update_over_the_leader_limits_is_rejected() -> None:
     for frag in (FragmentData(1, 0.5, 0, 1, 4, checksum(b"abcd"), b"abcd"),
                  FragmentData(1, 0.5, 0, 3, 3, 0, b"a")):
         request = poll(leader, 1.0)
-        events = leader.on_reply("a", _reply("a", request.poll_seq, frag), 1.01)
+        events = on_reply(leader, "a", _reply("a", request.poll_seq, frag), 1.01)
         assert len(events) == 1 and isinstance(events[0], Rejected)
     assert leader.stats("a", 2.0).errors == 2
 
@@ -247,7 +249,7 @@ def test_fragmented_update_is_reassembled_across_polls_and_losses() -> None:
         if k in (2, 3):  # both polls' replies lost
             request = poll(leader, t)
             followers["a"].on_poll(request.payload, t, t)
-            leader.on_timer(request.deadline)
+            on_timer(leader, request.deadline)
             continue
         delivered += [e for e in exchange(leader, followers, t)[2] if isinstance(e, Delivered)]
     assert [d.payload for d in delivered] == [payload]
@@ -281,9 +283,9 @@ def test_remove_while_in_flight() -> None:
     raw = followers["a"].on_poll(request.payload, 0.001, 0.001)
     leader.remove_follower("a")
     assert leader.followers == ["b"]
-    assert leader.in_flight is None and leader.next_timer() is None
-    assert leader.on_timer(10.0) == [] and leader.finish_poll(10.0) == []
-    events = leader.on_reply("a", raw, 0.002)
+    assert leader.in_flight is None and leader.get_timer() is None
+    assert on_timer(leader, 10.0) == []
+    events = on_reply(leader, "a", raw, 0.002)
     assert len(events) == 1 and isinstance(events[0], Stale)
     assert leader.unknown_replies == 1
     assert poll(leader, 0.01).follower == "b"
@@ -291,7 +293,7 @@ def test_remove_while_in_flight() -> None:
         leader.stats("a", 0.01)
     leader.remove_follower("a")  # already gone: nothing to do
     leader.remove_follower("b")
-    assert leader.poll(1.0) is None
+    assert leader.next_poll(1.0) is None
 
 
 def test_remove_another_follower_keeps_the_poll_in_flight() -> None:
@@ -300,7 +302,7 @@ def test_remove_another_follower_keeps_the_poll_in_flight() -> None:
     request = poll(leader, 0.001)
     leader.remove_follower("b")
     raw = followers["a"].on_poll(request.payload, 0.002, 0.002)
-    assert [type(e) for e in leader.on_reply("a", raw, 0.003)] == [Delivered]
+    assert [type(e) for e in on_reply(leader, "a", raw, 0.003)] == [Delivered]
     assert leader.stats("a", 0.003).p_hat == 1.0
     assert poll(leader, 0.01).follower == "c"
 
@@ -338,7 +340,7 @@ def _run_with_a_dead_follower(
         if request.follower == "dead":
             dead_polls.append(t)
             t = request.deadline
-            leader.on_timer(t)
+            on_timer(leader, t)
         else:
             followers["a"].offer(b"x", t)
             answer(leader, followers, request, t)
@@ -411,6 +413,6 @@ def test_update_whose_reply_was_lost_after_a_rejoin_is_still_delivered() -> None
     followers["a"].offer(b"only frame", 1.5)
     request = poll(leader, 2.0)
     followers["a"].on_poll(request.payload, 2.001, 2.001)  # the reply is lost
-    leader.on_timer(request.deadline)
+    on_timer(leader, request.deadline)
     events = answer(leader, followers, poll(leader, 3.0), 3.0)
     assert [type(e) for e in events] == [Delivered]

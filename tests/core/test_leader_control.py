@@ -7,7 +7,7 @@ import pytest
 from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.core.wire import decode_control
 
-from .drive import poll
+from .drive import on_timer, poll
 from .test_leader import _setup
 
 
@@ -21,7 +21,7 @@ def test_control_is_broadcast_with_every_poll() -> None:
     assert control.leader_time == 1.0
     assert followers["a"].on_control(first.control, 1.0) == wps
     assert followers["b"].on_control(first.control, 1.0) is None
-    leader.finish_poll(1.1)
+    on_timer(leader, first.deadline)
     second = poll(leader, 1.2)
     assert decode_control(second.control).seq > control.seq
     assert followers["a"].on_control(first.control, 1.2) is None  # older: ignored
@@ -37,7 +37,7 @@ def test_restarted_leader_is_still_obeyed() -> None:
     leader.set_control("a", [(1.0, 0.0, 0.0, 0.0)])
     for k in range(5):
         followers["a"].on_control(poll(leader, float(k)).control, float(k))
-        leader.finish_poll(k + 0.1)
+        on_timer(leader, leader.get_timer() or k)
     fresh_leader = Leader(epoch=leader.epoch + 1)
     fresh_leader.add_follower("a", 10.0)
     fresh_leader.set_control("a", [(9.0, 9.0, 9.0, 9.0)])

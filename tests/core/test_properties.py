@@ -39,6 +39,8 @@ from wiswarm_zenoh.core.wire import (
     encode_reply,
 )
 
+from .drive import on_reply, on_timer
+
 PROPS = settings(max_examples=200, deadline=None, derandomize=True)  # same examples in CI
 LATENCY = 0.001
 
@@ -92,7 +94,7 @@ def test_leader_and_follower_over_a_random_delivery_schedule(
     t = 0.0
 
     def consume(raw: bytes, now: float) -> None:
-        delivered.extend(e for e in leader.on_reply("a", raw, now) if isinstance(e, Delivered))
+        delivered.extend(e for e in on_reply(leader, "a", raw, now) if isinstance(e, Delivered))
 
     for payload, fate, release_late in steps:
         t += 0.01
@@ -100,31 +102,31 @@ def test_leader_and_follower_over_a_random_delivery_schedule(
             offered[max(offered, default=0) + 1] = (t, payload)
         if late and release_late:  # an old reply turns up now: stale, or (the reply to
             # the last poll, which timed out) taken only as a measure of the link
-            events = leader.on_reply("a", late.pop(0), t)
+            events = on_reply(leader, "a", late.pop(0), t)
             assert all(isinstance(e, Stale) for e in events)
-        request = leader.poll(t)
+        request = leader.next_poll(t)
         assert request is not None
         if fate == "poll_lost":
             t = request.deadline
-            assert leader.on_timer(t)
+            assert on_timer(leader, t)
             continue
         raw = follower.on_poll(request.payload, t + LATENCY, t + LATENCY)
         if fate in ("reply_lost", "late"):
             if fate == "late":
                 late.append(raw)
             t = request.deadline
-            assert leader.on_timer(t)
+            assert on_timer(leader, t)
             continue
         if fate == "garbage":
-            assert isinstance(leader.on_reply("a", garbage, t + LATENCY)[0], Rejected)
+            assert isinstance(on_reply(leader, "a", garbage, t + LATENCY)[0], Rejected)
         consume(raw, t + 2 * LATENCY)
         if fate == "duplicate":
-            assert isinstance(leader.on_reply("a", raw, t + 3 * LATENCY)[0], Stale)
+            assert isinstance(on_reply(leader, "a", raw, t + 3 * LATENCY)[0], Stale)
         assert leader.in_flight is None
 
     for _ in range(20):  # the link heals: what is left (two updates at most) gets through
         t += 0.01
-        request = leader.poll(t)
+        request = leader.next_poll(t)
         assert request is not None
         consume(follower.on_poll(request.payload, t + LATENCY, t + LATENCY), t + 2 * LATENCY)
 

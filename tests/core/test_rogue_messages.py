@@ -31,7 +31,7 @@ from wiswarm_zenoh.core.wire import (
     encode_reply,
 )
 
-from .drive import poll
+from .drive import on_reply, on_timer, poll
 
 EPOCH = 1_700_000_000_000_000  # a leader started at that time (microseconds)
 WP = [(1.0, 2.0, 3.0, 4.0)]
@@ -190,20 +190,20 @@ def test_a_reply_stamped_an_hour_ahead_is_refused_and_cuts_nobody_off() -> None:
     for k in range(3):  # the clock estimate has samples
         request = poll(leader, 1.0 + k)
         raw = _genuine(f, b"frame", 0.999 + k, request.payload, 1.001 + k)
-        assert isinstance(leader.on_reply("f", raw, 1.002 + k)[0], Delivered)
+        assert isinstance(on_reply(leader, "f", raw, 1.002 + k)[0], Delivered)
     request = poll(leader, 10.0)
     for forged in (_forged(request.poll_seq, 10.001, 10.001, 3610.0),
                    _forged(request.poll_seq, 3610.001, 3610.001, 3610.0)):
-        events = leader.on_reply("f", forged, 10.002)
+        events = on_reply(leader, "f", forged, 10.002)
         assert [type(e) for e in events] == [Rejected]
         assert leader.in_flight == "f"  # still waiting for f's own answer
     raw = _genuine(f, b"frame", 9.999, request.payload, 10.001)
-    events = leader.on_reply("f", raw, 10.002)
+    events = on_reply(leader, "f", raw, 10.002)
     assert isinstance(events[0], Delivered) and events[0].age == pytest.approx(0.003)
     for k in range(3):
         request = poll(leader, 11.0 + k)
         raw = _genuine(f, b"frame", 10.999 + k, request.payload, 11.001 + k)
-        assert isinstance(leader.on_reply("f", raw, 11.002 + k)[0], Delivered)
+        assert isinstance(on_reply(leader, "f", raw, 11.002 + k)[0], Delivered)
     assert leader.stats("f", 13.002).aoi_s == pytest.approx(0.003)
 
 
@@ -216,19 +216,19 @@ def test_a_forger_who_answers_a_new_follower_first_holds_its_clock_only_for_a_wh
     leader, f = Leader(config, epoch=EPOCH), Follower("f")
     leader.add_follower("f", 0.0)
     request = poll(leader, 1.0)
-    events = leader.on_reply("f", _forged(request.poll_seq, 3601.001, 3601.001, 3601.0), 1.002)
+    events = on_reply(leader, "f", _forged(request.poll_seq, 3601.001, 3601.001, 3601.0), 1.002)
     assert isinstance(events[0], Delivered) and events[0].age == pytest.approx(0.002)
     refused = 0
     for k in range(1, 10):
         now = 1.0 + k
         request = poll(leader, now)
         raw = _genuine(f, b"frame", now - 0.001, request.payload, now + 0.001)
-        events = leader.on_reply("f", raw, now + 0.002)
+        events = on_reply(leader, "f", raw, now + 0.002)
         if isinstance(events[0], Delivered):
             break
         assert isinstance(events[0], Rejected)
         refused += 1
-        assert isinstance(leader.finish_poll(now + 0.3)[0], TimedOut)
+        assert isinstance(on_timer(leader, now + 0.3)[0], TimedOut)
     assert refused == config.clock_samples - 1
     assert leader.stats("f", now + 0.002).aoi_s == pytest.approx(0.003)
 
@@ -243,12 +243,12 @@ def test_implausible_replies_leave_the_poll_to_the_followers_own(
 ) -> None:
     leader, f = _leader_with(), Follower("f")
     request = poll(leader, 2.0)
-    events = leader.on_reply("f", forged(request.poll_seq), 2.002)
+    events = on_reply(leader, "f", forged(request.poll_seq), 2.002)
     assert isinstance(events[0], Rejected) and reason in events[0].reason
-    assert isinstance(leader.on_reply("f", _forged(2**63 - 1, 2.001, 2.001, 1.0), 2.002)[0],
+    assert isinstance(on_reply(leader, "f", _forged(2**63 - 1, 2.001, 2.001, 1.0), 2.002)[0],
                       Stale)
     raw = _genuine(f, b"frame", 1.999, request.payload, 2.001)
-    assert isinstance(leader.on_reply("f", raw, 2.002)[0], Delivered)
+    assert isinstance(on_reply(leader, "f", raw, 2.002)[0], Delivered)
 
 
 def test_a_stamp_ahead_within_the_tolerance_is_delivered_as_now_never_with_negative_age(
@@ -257,7 +257,7 @@ def test_a_stamp_ahead_within_the_tolerance_is_delivered_as_now_never_with_negat
     request = poll(leader, 2.0)
     # Stamped 4.5 ms after the reply left: within the slack for clock reads, and ahead of
     # the leader's clock once mapped onto it.
-    events = leader.on_reply("f", _forged(request.poll_seq, 2.003, 2.0035, 2.008), 2.002)
+    events = on_reply(leader, "f", _forged(request.poll_seq, 2.003, 2.0035, 2.008), 2.002)
     delivered = events[0]
     assert isinstance(delivered, Delivered)
     assert delivered.age == 0.0 and delivered.generated_at == 2.002

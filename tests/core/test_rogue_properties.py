@@ -23,6 +23,8 @@ from wiswarm_zenoh.core.wire import (
     encode_reply,
 )
 
+from .drive import on_reply, on_timer
+
 ROGUE = settings(max_examples=1000, deadline=None, derandomize=True)  # same examples in CI
 EPOCH = 1_700_000_000_000_000
 WINDOW = 1.0  # FollowerConfig().control_window
@@ -185,7 +187,7 @@ def test_the_leaders_aoi_is_the_one_its_followers_genuine_updates_give(
     for new_update, before, arrives, after in cycles:
         if new_update:
             follower.offer(b"frame %.6f" % now, now + offset - 0.0005)
-        request, twin = subject.poll(now), reference.poll(now)
+        request, twin = subject.next_poll(now), reference.next_poll(now)
         assert request is not None and twin is not None and request.payload == twin.payload
         at = now + 0.001 + offset
         raw = follower.on_poll(request.payload, at, at + 0.0001)
@@ -193,22 +195,22 @@ def test_the_leaders_aoi_is_the_one_its_followers_genuine_updates_give(
         for kind in before:
             forged = _forge(kind, request.poll_seq, genuine, replies, answered_once)
             if forged is not None:
-                assert not [e for e in subject.on_reply("f", forged, now + 0.0015)
+                assert not [e for e in on_reply(subject, "f", forged, now + 0.0015)
                             if isinstance(e, Delivered)]
         lost = arrives == 0 and lost_in_a_row < 2  # fewer than clock_samples - 1
         lost_in_a_row = lost_in_a_row + 1 if lost else 0
         if lost:
-            events = [subject.finish_poll(now + 0.3), reference.finish_poll(now + 0.3)]
+            events = [on_timer(subject, now + 0.3), on_timer(reference, now + 0.3)]
         else:
-            events = [subject.on_reply("f", raw, now + 0.002),
-                      reference.on_reply("f", raw, now + 0.002)]
+            events = [on_reply(subject, "f", raw, now + 0.002),
+                      on_reply(reference, "f", raw, now + 0.002)]
             answered_once = True
         assert events[0] == events[1]
         replies.append(raw)
         for kind in after:
             forged = _forge(kind, request.poll_seq, genuine, replies, answered_once)
             if forged is not None:
-                assert not [e for e in subject.on_reply("f", forged, now + 0.003)
+                assert not [e for e in on_reply(subject, "f", forged, now + 0.003)
                             if isinstance(e, Delivered)]
         now += 0.5
     mine, theirs = subject.stats("f", now), reference.stats("f", now)

@@ -17,7 +17,7 @@ from wiswarm_zenoh.core.events import (
     TimedOut,
 )
 from wiswarm_zenoh.core.follower import Follower
-from wiswarm_zenoh.core.leader import FollowerStats, Leader, PollRequest
+from wiswarm_zenoh.core.leader import FollowerStats, Leader, PollRequest, drain
 from wiswarm_zenoh.core.policies import POLICIES, Policy, make_policy
 from wiswarm_zenoh.core.wire import Waypoint
 
@@ -40,5 +40,6 @@ __all__ = [
     "TimedOut",
     "Waypoint",
     "WireError",
+    "drain",
     "make_policy",
 ]

@@ -12,8 +12,13 @@ class Delivered:
     follower: str
     payload: bytes
     generated_at: float  # on the leader's clock
-    age: float  # seconds between generation and delivery
+    delivered_at: float  # when its last fragment came, on the leader's clock
     update_seq: int
+
+    @property
+    def age(self) -> float:
+        """Seconds between generation and delivery."""
+        return self.delivered_at - self.generated_at
 
 
 @dataclass(frozen=True, slots=True)

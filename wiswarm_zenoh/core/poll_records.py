@@ -1,15 +1,23 @@
-"""What the leader keeps of one poll through its life: the request sent, the answer taken
-on the fast path, the update whose checksum waits, the pick prepared for the next poll."""
+"""A poll's life in the leader, in one record with named stages (as h11's ``_state``).
+
+A poll is ``SENT`` until a valid reply or its deadline ends it. A valid reply makes it
+``ANSWERED``: the poll is over for the scheduler, and what taking the reply involves (its
+outcome in p and the timeout, the clock sample, reassembly) waits. If the reply completed
+an update, the poll is then ``UNSETTLED``: the update counts for the scheduler's ages, and
+its checksum, AoI and delivery wait. Then it is ``DONE`` and forgotten. At most one poll is
+``SENT``; answered ones wait in arrival order, and their work is done in that order.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum
 
 from wiswarm_zenoh.core.peers import Peer
 from wiswarm_zenoh.core.wire import FragmentData, Reply, encode_control_packed
 
-__all__ = ["Answered", "PollRequest", "Prepared", "Unsettled"]
+__all__ = ["Pick", "PollLife", "PollRequest", "Stage"]
 
 
 @dataclass(slots=True)
@@ -37,38 +45,37 @@ class PollRequest:
                                      self.epoch)
 
 
-@dataclass(slots=True)
-class Unsettled:
-    """A complete update already counted for the scheduler, whose checksum and delivery
-    are ``settle``'s job. Its time-stamp is on the leader's clock as estimated when it
-    came: a follower restarting in between changes nothing."""
+class Stage(Enum):
+    SENT = "sent"  # out: a valid reply or the deadline ends it
+    ANSWERED = "answered"  # over: its outcome, clock sample and fragment wait
+    UNSETTLED = "unsettled"  # a whole update: its checksum, AoI and delivery wait
+    DONE = "done"  # nothing left: forgotten
 
-    follower: str
+
+@dataclass(slots=True)
+class PollLife:
+    """One poll from sending to done. ``reply`` and ``answered_at`` are set when it is
+    answered; ``frag``, ``whole`` and ``generated_at`` (leader clock, as estimated when
+    the reply came) when it completed an update."""
+
+    request: PollRequest
     peer: Peer
-    frag: FragmentData
-    whole: bytes
-    generated_at: float
-    now: float
+    stage: Stage = Stage.SENT
+    reply: Reply | None = None
+    answered_at: float = 0.0
+    frag: FragmentData | None = None
+    whole: bytes = b""
+    generated_at: float = 0.0
 
 
 @dataclass(slots=True)
-class Prepared:
-    """``prepare``'s pick for the poll after the one in flight (``poll_seq``): the
-    follower at ``choice`` in the table, whose policy index at ``at`` is ``value``."""
+class Pick:
+    """Whom to poll after the poll ``poll_seq`` (in flight when picked) if its reply
+    comes as usual: the follower at ``choice`` in the table, whose policy index at
+    ``at`` (the reply's expected time) is ``value``."""
 
     poll_seq: int
     at: float
     choice: int
     value: float
     index: Callable[[float, float, float], float]  # the policy's
-
-
-@dataclass(slots=True)
-class Answered:
-    """A valid reply that completed its poll on the fast path; the rest of taking it
-    (the poll's outcome, clock, reassembly) waits for ``settle``."""
-
-    flight: PollRequest
-    peer: Peer
-    reply: Reply
-    now: float

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
+
+import numpy as np
 
 from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
 from wiswarm_zenoh.core.peers import PeerTable
-from wiswarm_zenoh.core.policies import Policy
+from wiswarm_zenoh.core.policies import IndexPolicy, Policy
+from wiswarm_zenoh.core.poll_records import Pick
 
 
 def choose(table: PeerTable, policy: Policy, slot: float, now: float) -> int:
@@ -36,3 +40,24 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
     if live is not None:
         wa, pa, taua = wa[live], pa[live], taua[live]
     return policy.choose(wa, pa, array_ages_in_slots(taua, now, slot))
+
+
+def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, polled: int,
+               at: float) -> Pick | None:
+    """Whom to poll after the poll ``poll_seq`` of the follower at ``polled``, if its
+    reply comes at ``at``: the best of the others by the policy's index, with its value
+    (to weigh the polled follower's new index against when the reply comes). None when
+    that cannot be decided ahead: a policy without an index, a single follower, or a
+    silent one (whose probes ``choose`` times)."""
+    if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
+        return None
+    if table.few:
+        values = policy.indices(table.w, table.p, ages_in_slots(table.tau, at, slot))
+        values[polled] = -math.inf
+        best = max(values)
+        return Pick(poll_seq, at, values.index(best), best, policy.index)  # first of equals
+    wa, pa, taua = table.arrays()
+    indices = policy.index(wa, pa, array_ages_in_slots(taua, at, slot))
+    indices[polled] = -np.inf
+    choice = int(np.argmax(indices))
+    return Pick(poll_seq, at, choice, float(indices[choice]), policy.index)

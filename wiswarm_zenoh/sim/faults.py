@@ -15,7 +15,7 @@ from __future__ import annotations
 import random
 from dataclasses import dataclass
 
-from wiswarm_zenoh.core import Follower, Leader, LeaderConfig
+from wiswarm_zenoh.core import Follower, Leader, LeaderConfig, drain
 
 PROBE_INTERVAL = 100.0  # slots before a silent follower's first probe (doubling after)
 PROBE_MAX = 1600.0
@@ -61,19 +61,21 @@ def run_faults(spec: FaultSpec) -> float:
         leader.add_follower(f, 0.0)
         leader.observe_urgency(f, w[f])  # the weight, through the EMA as in a real run
     t = 0.0
+    request = leader.next_poll(t)
     while t < spec.slots:
-        request = leader.poll(t)
         assert request is not None
         f = request.follower
         down = f in dead or (f in flaky and (t + phase[f]) % spec.period < spec.outage)
         if not down and rng.random() < p[f]:
             follower = followers[f]
             follower.offer(b"x", t)
-            leader.on_reply(f, follower.on_poll(request.payload, t, t), t + 1.0)
+            leader.receive_reply(f, follower.on_poll(request.payload, t, t), t + 1.0)
             t += 1.0
         else:
             t += spec.timeout_slots
-            leader.on_timer(t)
+            leader.handle_timer(t)
+        request = leader.next_poll(t)
+        drain(leader)
     alive = [f for f in names if f not in dead]
     weights = [leader.stats(f, t).weight for f in alive]
     return sum(wt * leader.stats(f, t).mean_aoi_s for wt, f in zip(weights, alive,

@@ -40,7 +40,7 @@ from dataclasses import dataclass, field, replace
 
 from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.follower import Follower
-from wiswarm_zenoh.core.leader import Leader
+from wiswarm_zenoh.core.leader import Leader, drain
 from wiswarm_zenoh.sim.engine import Engine
 from wiswarm_zenoh.sim.medium import Mpdu, Station
 from wiswarm_zenoh.sim.metrics import WifiResult
@@ -348,13 +348,14 @@ def _exchange(frame_bytes: int) -> tuple[int, int, int]:
     sizes = (0, 0, 0)
     for now in (0.0, 1.0):  # the first poll acknowledges nothing yet
         follower.offer(bytes(frame_bytes), now)
-        request = leader.poll(now)
+        request = leader.next_poll(now)
         assert request is not None, "a lone idle follower is always polled"
         reply = follower.on_poll(request.payload, now, now)
         if len(reply) < frame_bytes:
             raise ValueError(f"frame_bytes must fit one reply (the fragment size), "
                              f"got {frame_bytes}")
-        leader.on_reply("uav0", reply, now)
+        leader.receive_reply("uav0", reply, now)
+        drain(leader)
         sizes = (len(request.control), len(request.payload), len(reply))
     return sizes
 

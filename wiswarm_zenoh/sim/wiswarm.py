@@ -3,8 +3,9 @@
 The leader's poll (with the control broadcast) goes out from the leader's station;
 when the poll arrives, the follower answers after a host turnaround with the reply
 bytes that ``Follower.on_poll`` returns, sent as one UDP datagram (IP-fragmented);
-the whole reply goes to ``Leader.on_reply``. A lost poll or reply fragment leaves the
-leader to its timer (``next_timer`` / ``on_timer``). Cameras sample at a fixed rate
+the whole reply goes to ``Leader.receive_reply``, the next poll goes out, and the
+leader's events are drained, as the Zenoh shell does. A lost poll or reply fragment
+leaves the leader to its timer (``get_timer`` / ``handle_timer``). Cameras sample at a fixed rate
 into the LIFO queue: each follower is offered its freshest sample when it answers a
 poll, which is all a LIFO of capacity 1 would keep. Frames carry their true capture
 time in an 8-byte header, so AoI is measured on ground truth, not on the leader's
@@ -89,7 +90,7 @@ class WiswarmNetwork:
                 hook(k == last, False, self._engine.now)
 
     def _poll(self) -> None:
-        request = self.leader.poll(self._engine.now)
+        request = self.leader.next_poll(self._engine.now)
         if request is None:
             return
         i = self._index[request.follower]
@@ -128,16 +129,22 @@ class WiswarmNetwork:
         if not data or self._lost_poll == request.poll_seq:
             return
         in_flight = self.leader.in_flight == request.follower
-        for event in self.leader.on_reply(request.follower, reply, now):
-            if isinstance(event, Delivered):
-                sink = self._sinks[self._index[event.follower]]
-                sink.deliver(STAMP.unpack_from(event.payload)[0], now)
+        self.leader.receive_reply(request.follower, reply, now)
         if in_flight and self.leader.in_flight is None:
             self._timer_version += 1
             self._poll()
+        self._take_events()
 
     def _on_timer(self, version: int) -> None:
         if version != self._timer_version:
             return
-        self.leader.on_timer(self._engine.now)
+        self.leader.handle_timer(self._engine.now)
         self._poll()
+        self._take_events()
+
+    def _take_events(self) -> None:
+        """The leader's events, once the next poll is out (as a shell takes them)."""
+        while (event := self.leader.next_event()) is not None:
+            if isinstance(event, Delivered):
+                sink = self._sinks[self._index[event.follower]]
+                sink.deliver(STAMP.unpack_from(event.payload)[0], event.delivered_at)

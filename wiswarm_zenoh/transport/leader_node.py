@@ -1,21 +1,15 @@
 """The leader on Zenoh: discovery by liveliness, the poll loop, control and telemetry.
 
-One thread owns the loop and keeps exactly one poll in flight. Everything it reacts to
-comes through one inbox: each get's replies and its end (put by Zenoh's own thread, see
-``links``) and wake-ups for membership changes. It waits on that inbox until the core's
-timer (the poll's adaptive deadline) or the next stats; the core's timer is what ends a
-poll, and Zenoh's get stays open until the ceiling (``--timeout``), so a reply that
-comes after its deadline still reaches the core and lengthens that follower's timeout.
-A get that Zenoh closes with no valid reply before the deadline (nobody answers on the
-key) ends the poll at once.
-
-While a poll is out, the core picks whom to poll next if the reply comes as usual
-(``prepare``); when it comes, ``reply_and_poll`` checks it against that pick and the next
-poll goes out at once. The rest of taking the reply (the poll's outcome, the clock,
-reassembly, checksum, AoI, the delivery), the ``fresh`` re-publication and
-``on_delivery`` run while that next poll is on its way. When the core declines (bad
-input, a fragment of a larger update, the polled follower still first in line), the
-reply is taken the usual way: ``accept_reply``, then ``poll``.
+One thread owns the loop and keeps exactly one poll in flight. It feeds the core and
+pulls from it, nothing else: a reply arrives, it is fed in (``receive_reply``), the next
+poll goes out (``next_poll``), the core's events are drained (``next_event``: the work a
+reply brings is done then, while that poll is on its way) and handed on. Everything the
+loop reacts to comes through one inbox: replies, put there by Zenoh's own thread (see
+``links``), and wake-ups for membership changes. It waits on that inbox until the
+core's timer (``get_timer``) or the next stats. The core's timer alone ends a poll that
+gets no answer; Zenoh's get stays open until the ceiling (``--timeout``), so a reply
+that comes after the follower's adaptive deadline still reaches the core and lengthens
+that timeout.
 """
 
 from __future__ import annotations
@@ -35,13 +29,12 @@ import zenoh
 from wiswarm_zenoh.core import (
     Answering,
     Delivered,
-    Event,
     Leader,
     LeaderConfig,
-    PollRequest,
     Rejected,
     Silent,
     Stale,
+    drain,
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
@@ -57,8 +50,7 @@ from wiswarm_zenoh.transport.telemetry import (
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
-# (link, poll seq, reply) as a get brings it, reply None when the get ends; None: a wake-up
-Arrival = tuple[FollowerLink, int, zenoh.Reply | None] | None
+Arrival = tuple[FollowerLink, zenoh.Reply] | None  # a reply as its get brings it; None: wake up
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
@@ -116,8 +108,6 @@ class LeaderNode:
         self._inbox: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
         self._stop = threading.Event()
         self._links: dict[str, FollowerLink] = {}
-        self._flight: int | None = None  # the seq of the poll in flight, as sent
-        self._delivered: list[Delivered] = []  # not handed over yet
         self._transport_errors: Counter[str] = Counter()
         self.bad_input = BadInputLog(log)
         self._control_version = 0
@@ -207,89 +197,44 @@ class LeaderNode:
                 now = self._clock()
                 if now >= self._next_stats:
                     self._publish_stats(now)
-                if self._flight is None:
-                    with self._lock:
-                        request = self._leader.poll(now)
-                        version = self._control_version
-                    if request is not None:
-                        self._send(request, version, now)
-                    else:
-                        self._settle()
+                self._poll(now)
                 with self._lock:
-                    timer = self._leader.next_timer()
+                    timer = self._leader.get_timer()
                 wake_at = self._next_stats if timer is None else min(timer, self._next_stats)
                 try:
                     arrival = self._inbox.get(timeout=max(0.0, wake_at - now))
                 except queue.Empty:
-                    self._on_timer()
+                    with self._lock:
+                        self._leader.handle_timer(self._clock())
                     continue
                 if arrival is not None:
-                    self._arrive(*arrival)
+                    link, reply = arrival
+                    data = self._payload(link, reply)
+                    if data is not None:
+                        with self._lock:
+                            self._leader.receive_reply(link.follower, data, self._clock())
         finally:
-            self._settle()
+            self._hand_on()
 
-    def _send(self, request: PollRequest, version: int, now: float) -> None:
-        """Send a poll (and the control information, when due); then, while it is on its
-        way, finish taking the last reply and pick whom to poll after it."""
-        sent_version, sent_at = self._control_sent
-        if version != sent_version or now - sent_at >= self._control_period:
-            self._control.put(request.control)
-            self._control_sent = (version, now)
-        link, seq, inbox = self._links[request.follower], request.poll_seq, self._inbox
-        self._flight = seq
-        link.poll(request.payload, lambda reply: inbox.put((link, seq, reply)),
-                  lambda: self._ended(link, seq))
-        self._settle()
+    def _poll(self, now: float) -> None:
+        """Send the next poll if the core has one (with the control information, when
+        due), then hand on what the core has to say, while that poll is on its way."""
         with self._lock:
-            self._leader.prepare()
-
-    def _ended(self, link: FollowerLink, seq: int) -> None:
-        """Zenoh closed a get (on its own thread). Only the poll in flight needs to know:
-        its end means nobody answered. Any other's would wake the loop for nothing, once
-        per poll."""
-        if seq == self._flight:  # checked again on the loop, which owns ``_flight``
-            self._inbox.put((link, seq, None))
-
-    def _arrive(self, link: FollowerLink, seq: int, reply: zenoh.Reply | None) -> None:
-        """One thing a get brought: a reply for the core, or its end."""
-        now = self._clock()
-        current = seq == self._flight
-        if reply is None:  # Zenoh closed the get: if the poll is still out, nobody answered
-            if current:
-                with self._lock:
-                    events = self._leader.finish_poll(now)
-                self._flight = None
-                self._dispatch(events)
-            return
-        data = self._payload(link, reply)
-        if data is None:
-            return
-        if current:
-            with self._lock:
-                request = self._leader.reply_and_poll(link.follower, data, now)
-                version = self._control_version
-            if request is not None:
-                self._send(request, version, now)
-                return
-        with self._lock:
-            events = self._leader.accept_reply(link.follower, data, now)
-            if current and self._leader.in_flight is None:
-                self._flight = None
-        if events:
-            self._dispatch(events)
-
-    def _on_timer(self) -> None:
-        """The core's timer: the poll in flight is over if its deadline passed."""
-        with self._lock:
-            events = self._leader.on_timer(self._clock())
-            if self._leader.in_flight is None:
-                self._flight = None
-        if events:
-            self._dispatch(events)
+            request = self._leader.next_poll(now)
+            version = self._control_version
+        if request is not None:
+            sent_version, sent_at = self._control_sent
+            if version != sent_version or now - sent_at >= self._control_period:
+                self._control.put(request.control)
+                self._control_sent = (version, now)
+            link, inbox = self._links[request.follower], self._inbox
+            link.poll(request.payload, lambda reply: inbox.put((link, reply)))
+        self._hand_on()
 
     def _payload(self, link: FollowerLink, reply: zenoh.Reply) -> bytes | None:
         """A reply's bytes, or None for an error reply or one over the size limit (counted
-        and logged; a timeout is no error: ``finish_poll`` counts it)."""
+        and logged; Zenoh's own timeout at the ceiling is no error: the core's timer
+        has counted that poll unanswered long before)."""
         sample = reply.ok
         if sample is None:
             reason = b"" if reply.err is None else reply.err.payload.to_bytes()[:80]
@@ -304,20 +249,18 @@ class LeaderNode:
             return None
         return data
 
-    def _settle(self) -> None:
-        """The core's second step for the last reply, and its delivery handed on."""
+    def _hand_on(self) -> None:
+        """Drain the core's events and hand each on: a delivery to ``fresh`` (if anyone
+        listens) and the application, bad input to the log with its key."""
         with self._lock:
-            events = self._leader.settle()
-        if events:
-            self._dispatch(events)
-        if self._delivered:
-            self._hand_over()
-
-    def _dispatch(self, events: list[Event]) -> None:
-        """Report bad input now; keep deliveries for ``_hand_over``."""
+            events = drain(self._leader)
         for event in events:
             if isinstance(event, Delivered):
-                self._delivered.append(event)
+                link = self._links.get(event.follower)
+                if link is not None and link.listening:
+                    link.fresh.put(event.payload, attachment=fresh_attachment(event))
+                if self._on_delivery is not None:
+                    _notify(self._on_delivery, event)
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(self.keys.update(event.follower), event.reason)
             elif isinstance(event, Silent):
@@ -329,19 +272,7 @@ class LeaderNode:
             else:
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
 
-    def _hand_over(self) -> None:
-        """Deliveries go out once the next poll is sent: re-publishing them and the
-        application's callback then overlap that poll's round trip instead of delaying it."""
-        delivered, self._delivered = self._delivered, []
-        for event in delivered:
-            link = self._links.get(event.follower)
-            if link is not None and link.listening:
-                link.fresh.put(event.payload, attachment=fresh_attachment(event))
-            if self._on_delivery is not None:
-                _notify(self._on_delivery, event)
-
     def _apply_changes(self) -> None:
-        self._settle()  # a reply taken on the fast path, before its follower changes
         while self._changes:
             follower, joined = self._changes.popleft()
             now = self._clock()
@@ -351,8 +282,6 @@ class LeaderNode:
                     self._control_version += 1  # the newcomer needs the control now
                 else:
                     self._leader.remove_follower(follower)
-                    if self._leader.in_flight is None:  # its poll, if it was out, is over
-                        self._flight = None
             if joined:
                 if follower not in self._links:
                     self._links[follower] = FollowerLink.open(
@@ -371,7 +300,6 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
-        self._settle()  # so that the stats count the last delivery
         with self._lock:
             records = [
                 follower_stats(self._leader.stats(f, now), self._transport_errors[f])

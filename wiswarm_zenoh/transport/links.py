@@ -62,13 +62,10 @@ class FollowerLink:
         link.listening = status.matching
         return link
 
-    def poll(self, payload: bytes, on_reply: Callable[[zenoh.Reply], object],
-             on_end: Callable[[], object]) -> None:
-        """Send a poll: ``on_reply`` gets each reply and ``on_end`` is called once Zenoh
-        closes the get (all answered, nobody there, or the ceiling passed)."""
+    def poll(self, payload: bytes, on_reply: Callable[[zenoh.Reply], object]) -> None:
+        """Send a poll: ``on_reply`` gets each reply, on Zenoh's thread."""
         assert self.querier is not None, "polled after close()"
-        self.querier.get(zenoh.handlers.Callback(on_reply, on_end, indirect=False),
-                         payload=payload)
+        self.querier.get(zenoh.handlers.Callback(on_reply, indirect=False), payload=payload)
 
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
         self.listening = status.matching

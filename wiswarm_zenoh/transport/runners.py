@@ -172,10 +172,9 @@ class DeliveryRecord:
         self._capture_stamps = capture_stamps
 
     def __call__(self, event: Delivered) -> None:
-        delivered_at = event.generated_at + event.age
         generated_at = capture_time(event.payload) if self._capture_stamps else \
             event.generated_at
-        self.row(event.follower, event.update_seq, generated_at, delivered_at,
+        self.row(event.follower, event.update_seq, generated_at, event.delivered_at,
                  len(event.payload))
 
     def row(self, follower: str, update_seq: int, generated_at: float, delivered_at: float,

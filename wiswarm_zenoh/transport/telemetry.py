@@ -51,4 +51,4 @@ def fresh_attachment(event: Delivered) -> bytes:
     (leader clock), so a subscriber can draw the update's age without the follower."""
     return to_json({"follower": event.follower, "update_seq": event.update_seq,
                     "generated_at": event.generated_at,
-                    "delivered_at": event.generated_at + event.age})
+                    "delivered_at": event.delivered_at})
