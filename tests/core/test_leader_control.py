@@ -44,3 +44,18 @@ def test_restarted_leader_is_still_obeyed() -> None:
     request = poll(fresh_leader, 10.0)
     assert decode_control(request.control).seq == 1
     assert followers["a"].on_control(request.control, 10.0) == [(9.0, 9.0, 9.0, 9.0)]
+
+
+def test_a_leader_taking_over_starts_from_the_weights_and_control_it_was_given() -> None:
+    leader, followers = _setup("a", "b")
+    leader.take_over(leader.epoch + 5, {"a": 0.1, "b": 9.0, "gone": 3.0},
+                     {"b": [(1.0, 2.0, 3.0, 4.0)], "gone": [(0.0, 0.0, 0.0, 1.0)]})
+    assert leader.epoch == 5
+    assert (leader.stats("a", 0.0).weight, leader.stats("b", 0.0).weight) == (0.1, 9.0)
+    request = poll(leader, 1.0)
+    assert request.follower == "b"  # the heavier, as the leader before would have chosen
+    control = decode_control(request.control)
+    assert (control.epoch, control.entries) == (5, {"b": [(1.0, 2.0, 3.0, 4.0)]})
+    assert followers["b"].on_control(request.control, 1.0) == [(1.0, 2.0, 3.0, 4.0)]
+    with pytest.raises(ValueError, match="epoch"):
+        leader.take_over(-1, {}, {})

@@ -108,8 +108,24 @@ def test_another_epochs_plausible_control_holds_only_until_the_leaders_next() ->
     f = Follower("f")
     _polled(f, leader_time=10.0, at=10.0)
     assert f.on_control(_control(1, 10.0, WP), 10.0) == WP
-    assert f.on_control(_control(2**63 - 1, 10.05, ROGUE_WP, epoch=7), 10.05) == ROGUE_WP
+    newer = EPOCH + 1  # a leader that has not polled yet: judged on the follower's clock
+    assert f.on_control(_control(2**63 - 1, 10.05, ROGUE_WP, epoch=newer), 10.05) == ROGUE_WP
     assert f.on_control(_control(2, 10.1, WP), 10.1) == WP
+
+
+def test_control_of_an_epoch_older_than_the_polling_leader_is_ignored() -> None:
+    """A leader taken over from (or a stranger posing as one) no longer steers while
+    the newer one polls; once that one is quiet for longer than ``poller_expiry``, the
+    older epoch is heard again (it may be the only leader left)."""
+    f = Follower("f")
+    _polled(f, leader_time=10.0, at=10.0, epoch=EPOCH - 1)
+    _polled(f, leader_time=10.0, at=10.0)  # a newer leader took over: not yet obeyed
+    assert f.on_control(_control(1, 10.0, ROGUE_WP, epoch=EPOCH - 1), 10.0) == ROGUE_WP
+    assert f.on_control(_control(1, 10.0, WP), 10.0) == WP
+    assert f.on_control(_control(2**63 - 1, 10.05, ROGUE_WP, epoch=EPOCH - 1), 10.05) is None
+    assert f.control.stale == 1
+    quiet = 10.0 + f.config.poller_expiry + 0.01
+    assert f.on_control(_control(5, quiet, ROGUE_WP, epoch=EPOCH - 1), quiet) == ROGUE_WP
 
 
 # --- a second poller ---

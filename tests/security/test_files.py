@@ -77,7 +77,10 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {
         KEYS.control, KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh,
         f"{KEYS.prefix}/leader/deliveries"}
-    assert ("liveliness_token", "ingress", f"{KEYS.prefix}/leaders/leader") in leader
+    assert ("liveliness_token", "ingress", KEYS.leaders) in leader
+    # a standby follows the active leader: it may hear control and stats, not put stats
+    assert ("declare_subscriber", "ingress", KEYS.control) in leader
+    assert ("put", "egress", KEYS.leader_stats) in leader
 
 
 def test_add_follower_signs_with_the_same_ca_and_the_router_lets_it_serve(

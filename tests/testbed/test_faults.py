@@ -61,3 +61,19 @@ def test_a_follower_killed_mid_update_leaves_the_others_whole(tmp_path: Path) ->
         done = swarm.deliveries()
     twice = [key for key, n in Counter((d.follower, d.update_seq) for d in done).items() if n > 1]
     assert twice == []
+
+
+def test_killing_the_active_leader_hands_the_swarm_to_a_standby(tmp_path: Path) -> None:
+    names = ["f0", "f1"]
+    with FaultySwarm(tmp_path, names, standbys=["standby"]) as swarm:
+        swarm.wait_deliveries(names, 20)
+        assert swarm.leader is not None
+        assert not swarm.deliveries("standby")  # it stands by: it polls nobody
+        pids = {name: p.popen.pid for name, p in swarm.followers.items()}
+        swarm.leader.signal(signal.SIGKILL)
+        killed = time.time()
+        standby = swarm.standbys["standby"]
+        standby.wait_for("leader standby is active", timeout=WAIT)
+        swarm.wait_deliveries(names, 10, after=killed, timeout=WAIT, leader="standby")
+        assert all(p.popen.poll() is None and p.popen.pid == pids[name]
+                   for name, p in swarm.followers.items())  # no follower restarted

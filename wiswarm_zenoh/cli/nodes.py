@@ -65,7 +65,8 @@ SYSTEMS = ("wiswarm", *BASELINES)
 BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 # Flags only some systems take (default None, so that one given shows) and who takes them.
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
-               "alpha": ("wiswarm",), "control_period": ("wiswarm",), "bind": ("udp", "tcp")}
+               "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
+               "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
 
@@ -166,7 +167,8 @@ def _leader(args: argparse.Namespace) -> int:
         return _receiver(args)
     config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha"))
     control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
-    options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record)
+    options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record,
+                            name=args.name)
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
@@ -254,7 +256,9 @@ def register(subparsers: Any) -> None:
     leader.add_argument("--policy", choices=sorted(POLICIES),
                         help=f"wiswarm: whom to poll next (default {defaults.policy})")
     leader.add_argument("--timeout", type=positive_float(),
-                        help=f"wiswarm: seconds to wait for a reply (default {defaults.timeout})")
+                        help="wiswarm: the longest wait for a reply, in seconds (each "
+                        "follower's timeout adapts to its answers below it; default "
+                        f"{defaults.timeout})")
     leader.add_argument("--window", type=positive_int(),
                         help="wiswarm: polls over which each follower's reliability is "
                         f"estimated (default {defaults.window})")
@@ -263,6 +267,10 @@ def register(subparsers: Any) -> None:
     leader.add_argument("--control-period", type=finite_float(0.0), metavar="SECONDS",
                         help="wiswarm: repeat unchanged control information this often "
                         f"(default {CONTROL_PERIOD}); 0 puts it with every poll")
+    leader.add_argument("--name", type=node_name("leader name"),
+                        help="wiswarm: this leader's name among the swarm's leaders (default: "
+                        "host and process id). Any number may run: the oldest polls, the "
+                        "others stand by and take over when it goes")
     leader.add_argument("--record", metavar="CSV", type=writable_file(),
                         help="write every delivery to this file (its directory must exist)")
     _add_common(leader, ("peer", "client"))

@@ -15,8 +15,12 @@ A leader that has not polled this follower yet (just restarted; the push baselin
 which never polls) is judged against the follower's own clock: hosts synchronised by
 NTP are within the window; others are obeyed from that leader's first poll on.
 
-Among plausible messages the newest arrival wins, except that a message of an epoch
-already obeyed must be newer, by (leader time, seq), than the last one of that epoch:
+Control of an epoch older than the leader that polls this follower now (the main
+poller, see ``pollers``) and whose control it obeyed is ignored: a leader that was taken
+over from, or a dead one whose last messages arrive late, no longer steers. (A poll
+alone does not bar older control: a stray poll with a high epoch must not silence the
+leader.) Among plausible messages the newest arrival wins, except that a message of an
+epoch already obeyed must be newer, by (leader time, seq), than the last one of it:
 replays and reordered messages are ignored. So a rogue message that is plausible (only
 a forger who reads the swarm's traffic can stamp one) holds the follower until the
 leader's next control (another epoch), or at most ``window`` seconds (the leader's own).
@@ -58,6 +62,11 @@ class ControlGate:
                      else "its leader's clock as known from its polls")
             raise WireError(f"control of epoch {control.epoch} stamped {off:+.3f} s off "
                             f"{whose}, beyond the {self.window:g} s window")
+        main = self._pollers.main
+        if main is not None and control.epoch < main.epoch and main.epoch in self._last \
+                and now - main.received_at <= self._pollers.expiry:
+            self.stale += 1  # a leader taken over from: its last words are not obeyed
+            return False
         key = (control.leader_time, control.seq)
         last = self._last.get(control.epoch)
         if last is not None and last[0] > expected + self.window:

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import random
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
@@ -53,8 +54,7 @@ class Leader:
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
                  epoch: int = 0) -> None:
-        if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
-            raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")
+        _check_epoch(epoch)
         self.config = config or LeaderConfig()
         self.epoch = epoch  # in every poll and control: followers tell leaders apart by it
         self.policy = make_policy(self.config.policy, rng)
@@ -114,6 +114,24 @@ class Leader:
         self._peer(follower)
         self._waypoints[follower] = validate_waypoints(waypoints)
         self._packed_control = None
+
+    def take_over(self, epoch: int, weights: Mapping[str, float],
+                  control: Mapping[str, Sequence[Sequence[float]]]) -> None:
+        """Become the active leader as ``epoch`` (larger than the leader's it takes over
+        from), with that leader's weights and last control, not from zero. Followers it
+        does not know yet are skipped: their tokens bring them in."""
+        _check_epoch(epoch)
+        self.epoch = epoch
+        for follower, weight in weights.items():
+            peer = self.table.peers.get(follower)
+            if peer is not None and math.isfinite(weight) and weight >= 0.0:
+                peer.weight.value = weight
+                self.table.sync(follower)
+        for follower, waypoints in control.items():
+            if follower in self.table.peers:
+                self._waypoints[follower] = validate_waypoints(waypoints)
+        self._packed_control = None
+        self._pick = None
 
     def observe_urgency(self, follower: str, v: float) -> float:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
@@ -307,6 +325,11 @@ class Leader:
                 SLOT_EMA * typical + (1.0 - SLOT_EMA) * duration
         cfg = self.config
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
+
+
+def _check_epoch(epoch: int) -> None:
+    if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
+        raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")
 
 
 def _late(peer: Peer, poll_seq: int) -> float | None:

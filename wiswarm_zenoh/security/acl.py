@@ -56,7 +56,7 @@ def access_control(roster: Roster) -> dict[str, Any]:
     keys = SwarmKeys(roster.swarm)
     p = keys.prefix
     leader_stats, deliveries = keys.leader_stats, f"{p}/leader/deliveries"
-    leaders = f"{p}/leaders/*"
+    leaders = keys.leaders
     published = [keys.control, keys.all_stats, leader_stats, keys.all_fresh, deliveries]
     watched = [keys.all_stats, leader_stats, keys.all_fresh]
     updates = f"{p}/*/update"
@@ -66,7 +66,13 @@ def access_control(roster: Roster) -> dict[str, Any]:
         _rule("leader-gets-replies", ["reply"], EGRESS, [updates]),
         _rule("leader-watches-members", ["declare_liveliness_subscriber", "liveliness_query"],
               INGRESS, [keys.members, leaders]),
-        _rule("leader-token", ["liveliness_token"], INGRESS, [f"{p}/leaders/{roster.leader}"]),
+        # Any holder of the leader's certificate may run as a standby, under its own name.
+        _rule("leader-token", ["liveliness_token"], INGRESS, [leaders]),
+        # A standby follows the active leader's control and stats, to take over from them.
+        _rule("leader-follows-leader", ["declare_subscriber"], INGRESS,
+              [keys.control, keys.all_stats, leader_stats]),
+        _rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_stats,
+                                                       leader_stats]),
         _rule("leader-sees-tokens", ["liveliness_token"], EGRESS, [keys.members, leaders]),
         # Who listens and who answers, so that its publishers' matching status and its
         # queriers see the swarm.

@@ -1,7 +1,8 @@
 """Faults injected into a swarm of real ``wiswarm`` processes on loopback.
 
 A router, a leader recording every delivery (``--record``) and followers, each its own
-process started as a user would start it, all clients of the router. A follower can be
+process started as a user would start it, all clients of the router; standby leaders
+too, each recording what it delivers once it takes over. A follower can be
 stopped (SIGSTOP) and continued, or killed; the router killed and started again on the
 same port. What the others kept getting is read from the leader's record afterwards;
 what each process said, from its output.
@@ -90,12 +91,16 @@ class Process(Output):
 
 
 class FaultySwarm:
-    """Router, leader and ``followers`` as processes; use as a context manager."""
+    """Router, leader, ``standbys`` (leaders started after it, in that order) and
+    ``followers`` as processes; use as a context manager."""
 
     def __init__(self, directory: Path, followers: Sequence[str], frame_bytes: int = 50176,
-                 fragment_size: int | None = None) -> None:
+                 fragment_size: int | None = None, standbys: Sequence[str] = ()) -> None:
         self.port = free_tcp_port()
+        self._directory = directory
         self.record = directory / "deliveries.csv"
+        self._standby_names = list(standbys)
+        self.standbys: dict[str, Process] = {}
         self._env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         self._followers = list(followers)
         self._frame_bytes = frame_bytes
@@ -125,9 +130,15 @@ class FaultySwarm:
                     "follower", "--id", name, "--frame-bytes", str(self._frame_bytes),
                     *extra, *self._node_flags()], self._env)
             self.leader = Process("leader", ["leader", "--record", str(self.record),
-                                             *self._node_flags()], self._env)
+                                             "--name", "leader", *self._node_flags()],
+                                  self._env)
             for process in (*self.followers.values(), self.leader):
                 process.wait_for("(Ctrl-C to stop)")
+            for name in self._standby_names:  # one by one: each younger than the last
+                self.standbys[name] = Process(name, [
+                    "leader", "--record", str(self._record_of(name)), "--name", name,
+                    *self._node_flags()], self._env)
+                self.standbys[name].wait_for(f"leader {name} stands by")
         except BaseException:
             self.close()
             raise
@@ -136,8 +147,12 @@ class FaultySwarm:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _record_of(self, leader: str) -> Path:
+        return self._directory / f"deliveries-{leader}.csv"
+
     def close(self) -> None:
-        for process in (self.leader, *self.followers.values(), self.router):
+        for process in (self.leader, *self.standbys.values(), *self.followers.values(),
+                        self.router):
             if process is not None:
                 process.stop()
 
@@ -147,21 +162,24 @@ class FaultySwarm:
         self.router.popen.wait(10)
         return time.time()
 
-    def deliveries(self) -> list[Delivery]:
-        """Every delivery the leader recorded so far (its record is line-buffered)."""
-        if not self.record.exists():
+    def deliveries(self, leader: str | None = None) -> list[Delivery]:
+        """Every delivery the leader (or the standby named ``leader``) recorded so far
+        (records are line-buffered)."""
+        record = self.record if leader is None else self._record_of(leader)
+        if not record.exists():
             return []
-        with self.record.open(newline="") as file:
+        with record.open(newline="") as file:
             return [Delivery(row["follower"], int(row["update_seq"]),
                              float(row["delivered_at"])) for row in csv.DictReader(file)
                     if row.get("delivered_at")]
 
     def wait_deliveries(self, followers: Sequence[str], count: int, after: float = 0.0,
-                        timeout: float = READY) -> None:
-        """Until each of ``followers`` has ``count`` deliveries recorded after ``after``."""
+                        timeout: float = READY, leader: str | None = None) -> None:
+        """Until each of ``followers`` has ``count`` deliveries recorded after ``after``
+        (by the first leader, or the standby named ``leader``)."""
         deadline = time.monotonic() + timeout
         while time.monotonic() < deadline:
-            done = [d for d in self.deliveries() if d.delivered_at > after]
+            done = [d for d in self.deliveries(leader) if d.delivered_at > after]
             if all(sum(d.follower == f for d in done) >= count for f in followers):
                 return
             time.sleep(0.1)  # a file, not an event: re-read it until it holds enough

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 ROOT = "wiswarm"
-RESERVED = frozenset({"leader", "control", "members"})
+RESERVED = frozenset({"leader", "leaders", "control", "members"})
 _FORBIDDEN = frozenset("/*$?#")
 
 
@@ -54,6 +54,14 @@ class SwarmKeys:
     @property
     def members(self) -> str:
         return f"{self.prefix}/members/*"
+
+    @property
+    def leaders(self) -> str:
+        """Every leader's liveliness token (see ``election``)."""
+        return f"{self.prefix}/leaders/**"
+
+    def leader(self, name: str, started_us: int) -> str:
+        return f"{self.prefix}/leaders/{check_name(name, 'leader name')}/{started_us}"
 
     @property
     def leader_stats(self) -> str:

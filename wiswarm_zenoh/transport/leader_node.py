@@ -15,8 +15,10 @@ that timeout.
 from __future__ import annotations
 
 import logging
+import os
 import queue
 import random
+import socket
 import threading
 import time
 from collections import Counter, deque
@@ -38,9 +40,11 @@ from wiswarm_zenoh.core import (
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.transport.telemetry import (
     LeaderSummary,
     follower_stats,
@@ -74,6 +78,12 @@ class LeaderNode:
     changes (or a follower joins) and repeated every ``control_period`` seconds;
     ``control_period=0`` puts it with every poll. ``epoch`` (in every poll and control
     message) defaults to the start time in microseconds.
+
+    Any number of leaders may run for a swarm: the oldest polls, the others stand by
+    (``election``), following its control and the followers' weights (``standby``). A
+    standby that takes over does so with an epoch above any it heard, and those weights
+    and that control. ``name`` (default: host and process id) tells leaders apart in logs
+    and in ``leader/stats``.
     """
 
     def __init__(
@@ -90,12 +100,15 @@ class LeaderNode:
         stats_period: float = STATS_PERIOD,
         control_period: float = CONTROL_PERIOD,
         epoch: int | None = None,
+        name: str | None = None,
     ) -> None:
         self.keys = SwarmKeys(swarm)
         self._session = session
         # A leader started later has a larger epoch: followers then take it as theirs.
         self._leader = Leader(config, rng, max(0, int(clock() * 1e6)) if epoch is None else epoch)
         self.config = self._leader.config
+        self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
+        self._active = False  # this process polls (see ``_take_role``)
         self._clock = clock
         self._on_delivery = on_delivery
         self._on_join = on_join
@@ -124,6 +137,13 @@ class LeaderNode:
         self._members = session.liveliness().declare_subscriber(
             self.keys.members, self._on_member, history=True
         )
+        self._handover = Handover(session, self.keys)
+        self._handover.own_epoch = self._leader.epoch
+        self._election = Election(session, self.keys, self.name, self._leader.epoch,
+                                  lambda: self._inbox.put(None))
+        if not self._election.leading:
+            log.warning("leader %s stands by: %s is active", self.name,
+                        self._election.active[1])
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
         self._thread.start()
 
@@ -142,6 +162,11 @@ class LeaderNode:
     def epoch(self) -> int:
         """This leader's epoch, in every poll and control message it sends."""
         return self._leader.epoch
+
+    @property
+    def active(self) -> bool:
+        """This process is the swarm's active leader (the others stand by)."""
+        return self._active
 
     @property
     def fast_polls(self) -> int:
@@ -163,6 +188,8 @@ class LeaderNode:
         self._stop.set()
         self._inbox.put(None)
         self._thread.join()
+        self._election.close()  # a standby takes over now
+        self._handover.close()
         undeclare(self._members)
         for link in self._links.values():
             link.close()
@@ -194,10 +221,15 @@ class LeaderNode:
             while not self._stop.is_set():
                 if self._changes:
                     self._apply_changes()
+                if self._election.leading != self._active:
+                    self._take_role()
                 now = self._clock()
                 if now >= self._next_stats:
                     self._publish_stats(now)
-                self._poll(now)
+                if self._active:
+                    self._poll(now)
+                else:
+                    self._hand_on()
                 with self._lock:
                     timer = self._leader.get_timer()
                 wake_at = self._next_stats if timer is None else min(timer, self._next_stats)
@@ -215,6 +247,31 @@ class LeaderNode:
                             self._leader.receive_reply(link.follower, data, self._clock())
         finally:
             self._hand_on()
+
+    def _take_role(self) -> None:
+        """Become the active leader (with an epoch above any heard, and the weights and
+        control the leader before left), or stand by."""
+        self._active = self._election.leading
+        if not self._active:
+            log.warning("leader %s stands by (an older leader is active)", self.name)
+            return
+        self._raise_epoch(take_state=True)
+        log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
+
+    def _raise_epoch(self, take_state: bool) -> None:
+        """An epoch above any other leader's, so that followers take this one as theirs:
+        the time now (in microseconds; any leader that became active before has a
+        smaller one, even one this process never heard, as across a healed partition),
+        and above any epoch heard, whatever the clocks."""
+        heard, weights, control = self._handover.state()
+        with self._lock:
+            epoch = max(self._leader.epoch, heard + 1, int(self._clock() * 1e6))
+            if take_state:
+                self._leader.take_over(epoch, weights, control)
+            elif epoch != self._leader.epoch:
+                self._leader.take_over(epoch, {}, {})
+            self._control_version += 1  # the followers learn the new epoch at once
+        self._handover.own_epoch = epoch
 
     def _poll(self, now: float) -> None:
         """Send the next poll if the core has one (with the control information, when
@@ -300,6 +357,11 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
+        self._next_stats = now + self._stats_period
+        if not self._active:
+            return  # the active leader's stats are the swarm's
+        if self._handover.epoch >= self._leader.epoch:  # two active (a partition): rise
+            self._raise_epoch(take_state=False)
         with self._lock:
             records = [
                 follower_stats(self._leader.stats(f, now), self._transport_errors[f])
@@ -312,8 +374,8 @@ class LeaderNode:
                 link.stats.put(to_json(record))
         mark_time, mark_polls = self._stats_mark
         rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
-        summary = LeaderSummary.of(records, rate, self.config.policy, now - self._started)
+        summary = LeaderSummary.of(records, rate, self.config.policy, now - self._started,
+                                   self.name, self._leader.epoch)
         self._leader_stats.put(to_json(summary.as_dict()))
         self.latest, self.summary = records, summary
         self._stats_mark = (now, polls)
-        self._next_stats = now + self._stats_period

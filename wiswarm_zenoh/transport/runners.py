@@ -195,6 +195,7 @@ class LeaderOptions:
     control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
+    name: str | None = None  # the leader's name among its swarm's leaders (see election)
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -207,7 +208,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
     try:
         with spec.open() as session, LeaderNode(
             session, options.swarm, options.config, on_delivery=record,
-            control_period=options.control_period,
+            control_period=options.control_period, name=options.name,
         ) as node:
             if ready is not None:
                 ready.set()

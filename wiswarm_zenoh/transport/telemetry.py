@@ -26,20 +26,23 @@ class LeaderSummary:
     mean_aoi_s: float
     policy: str
     uptime_s: float
+    leader: str = ""  # the active leader's name (see ``election``)
+    epoch: int = 0  # its epoch: it grows at every takeover
 
     @classmethod
     def of(cls, records: Sequence[dict[str, float | int | str]], polls_per_s: float,
-           policy: str, uptime_s: float) -> LeaderSummary:
+           policy: str, uptime_s: float, leader: str = "", epoch: int = 0) -> LeaderSummary:
         means = [float(r["mean_aoi_s"]) for r in records]
         return cls(
             followers=[str(r["follower"]) for r in records], polls_per_s=polls_per_s,
             mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
-            uptime_s=uptime_s,
+            uptime_s=uptime_s, leader=leader, epoch=epoch,
         )
 
     def as_dict(self) -> dict[str, object]:
         return {"followers": self.followers, "polls_per_s": self.polls_per_s,
-                "mean_aoi_s": self.mean_aoi_s, "policy": self.policy, "uptime_s": self.uptime_s}
+                "mean_aoi_s": self.mean_aoi_s, "policy": self.policy, "uptime_s": self.uptime_s,
+                "leader": self.leader, "epoch": self.epoch}
 
 
 def to_json(record: dict[str, object] | dict[str, float | int | str]) -> bytes:

@@ -1,0 +1,102 @@
+"""Which of a swarm's leaders polls: the oldest one alive.
+
+Every leader process holds a liveliness token ``wiswarm/<swarm>/leaders/<name>/<start>``
+(its start time in microseconds) and watches everyone's, history included. The active
+leader is the one with the smallest (start, name): the first holder. A leader started
+later (a standby, or a restarted one) then never pre-empts a running one, and every
+leader reaches the same verdict from the tokens alone, with no message exchanged (two
+starts in the same microsecond are told apart by name). When the active leader's token
+goes (its process died: on loopback Zenoh sees the closed link at once; a lost link
+within the session's lease), the next oldest takes over. A partition gives each side an
+active leader; once it heals, each sees the other's token again and the younger steps
+down, so two leaders poll for at most the time Zenoh takes to tell them of each other.
+Start times come from each host's clock: hosts a few ms apart order leaders started at
+least that far apart, which is all the rule needs.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+
+import zenoh
+
+from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_name
+
+log = logging.getLogger(__name__)
+
+Claim = tuple[int, str]  # (start in microseconds, name): the smallest leads
+ASK_TIMEOUT = 2.0  # seconds: the routers answer at once; this bounds a start with none
+
+
+class Election:
+    """This leader's token, and the verdict from everyone's. ``on_change`` is called
+    (on Zenoh's thread: keep it short) whenever the active leader changes."""
+
+    def __init__(self, session: zenoh.Session, keys: SwarmKeys, name: str, started_us: int,
+                 on_change: Callable[[], None]) -> None:
+        self.keys = keys
+        self.claim: Claim = (started_us, check_name(name, "leader name"))
+        self._on_change = on_change
+        self._lock = threading.Lock()
+        self._claims: set[Claim] = {self.claim}
+        self._active = self.claim
+        liveliness = session.liveliness()
+        self._token = liveliness.declare_token(keys.leader(name, started_us))
+        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
+        # The subscriber's history comes on another thread, maybe after the first poll
+        # would go out: ask for the tokens already there, so a standby never starts active.
+        for reply in liveliness.get(keys.leaders, timeout=ASK_TIMEOUT):
+            if reply.ok is not None:
+                claim = _claim_of(str(reply.ok.key_expr), keys.swarm)
+                if claim is not None:
+                    with self._lock:
+                        self._claims.add(claim)
+        with self._lock:
+            self._active = min(self._claims)
+
+    @property
+    def active(self) -> Claim:
+        with self._lock:
+            return self._active
+
+    @property
+    def leading(self) -> bool:
+        return self.active == self.claim
+
+    def _on_token(self, sample: zenoh.Sample) -> None:
+        claim = _claim_of(str(sample.key_expr), self.keys.swarm)
+        if claim is None:
+            log.warning("leader token %s is not wiswarm/<swarm>/leaders/<name>/<start>: "
+                        "ignored", sample.key_expr)
+            return
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.PUT:
+                if claim != self.claim and claim[1] == self.claim[1]:
+                    log.warning("another leader is named %s too (started at %d us): "
+                                "the older of the two leads", claim[1], claim[0])
+                self._claims.add(claim)
+            elif claim != self.claim:  # our own token goes only when we close
+                self._claims.discard(claim)
+            active, changed = min(self._claims), min(self._claims) != self._active
+            self._active = active
+        if changed:
+            log.warning("leader %s (started at %d us) is active now%s", active[1], active[0],
+                        ": this process" if active == self.claim else "")
+            self._on_change()
+
+    def close(self) -> None:
+        undeclare(self._watch, self._token)
+
+
+def _claim_of(key: str, swarm: str) -> Claim | None:
+    parts = key.split("/")
+    if len(parts) != 5 or parts[0] != ROOT or parts[1] != swarm or parts[2] != "leaders" \
+            or not parts[4].isdigit():
+        return None
+    try:
+        return int(parts[4]), check_name(parts[3], "leader name")
+    except ValueError:
+        return None
