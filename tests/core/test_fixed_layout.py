@@ -4,9 +4,7 @@ goes through the general decoder."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import replace
 from typing import Any
 
 import msgpack
@@ -14,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from wiswarm_zenoh.core import WireError
+from wiswarm_zenoh.core import WireError, fixed_layout
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fixed_layout import expect, reply_prefix, unpack_poll, unpack_reply
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES, MAX_INT, MAX_SIZE, UINT32
@@ -36,7 +34,7 @@ finite = st.floats(allow_nan=False, allow_infinity=False)
 seqs = st.integers(0, MAX_INT)
 ids = st.text(st.characters(codec="utf-8"), min_size=1, max_size=MAX_ID_BYTES // 4)
 polls = st.builds(Poll, seqs, finite, st.none() | st.tuples(seqs, st.integers(0, UINT32)),
-                  st.sampled_from(["next", "fresh"]))
+                  st.sampled_from(["next", "fresh"]), seqs)
 
 
 @st.composite
@@ -124,31 +122,7 @@ def test_the_shortest_msgpack_encoding_goes_through_the_general_decoder() -> Non
 
 
 FRAG = FragmentData(3, 0.5, 1, 2, 100, 7, b"abc")
-TOO_BIG = MAX_INT + 1  # fits the layout's uint64, not the protocol
-# One field at a time given a value that its width holds but the protocol forbids.
-BAD_POLLS = [Poll(TOO_BIG, 1.0, None), Poll(1, 1.0, (TOO_BIG, 0), "fresh")] + [
-    Poll(1, bad, None) for bad in (math.nan, math.inf, -math.inf)]
-BAD_REPLIES = [
-    Reply("uav1", TOO_BIG, 0.0, 0.0, None),
-    Reply("uav1", 1, math.nan, 0.0, FRAG),
-    Reply("uav1", 1, 0.0, math.inf, None),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, update_seq=TOO_BIG)),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, generated_at=-math.inf)),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, index=2)),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, count=0, index=0)),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, total_size=2)),
-    Reply("uav1", 1, 0.0, 0.0, replace(FRAG, total_size=MAX_SIZE + 1)),
-]
-
-
-@pytest.mark.parametrize("kind, message", [("poll", p) for p in BAD_POLLS]
-                         + [("reply", r) for r in BAD_REPLIES])
-def test_a_forbidden_value_is_left_to_the_strict_decoder(kind: str, message: object) -> None:
-    _, encode, fast, strict = CODECS[kind]
-    data = encode(message)
-    assert fast(data) is None
-    with pytest.raises(WireError):
-        strict(data)
+# (A value its wire type holds but the protocol forbids: see test_message_rules.py.)
 
 
 def test_a_reply_whose_data_length_disagrees_is_left_to_the_strict_decoder() -> None:
@@ -181,10 +155,33 @@ def test_expecting_a_sender_changes_nothing_but_the_work(reply: Reply, from_poll
     is still read in full (and then its sender is the one it claims)."""
     data = encode_reply(reply)
     polled = reply.follower if from_polled else other
-    assert unpack_reply(data, expect(polled)) == unpack_reply(data) == reply
+    assert unpack_reply(data, polled) == unpack_reply(data) == reply
+
+
+def test_the_polled_followers_id_is_not_parsed(monkeypatch: pytest.MonkeyPatch) -> None:
+    reply = Reply("uav1", 1, 0.0, 0.0, FRAG)
+    data = encode_reply(reply)
+    monkeypatch.setattr(fixed_layout, "_sender", lambda data: None)  # parse nothing
+    assert unpack_reply(data) is None
+    assert unpack_reply(data, "uav2") is None
+    assert unpack_reply(data, "uav1") == reply
 
 
 def test_no_shortcut_is_expected_of_an_id_the_wire_refuses() -> None:
     assert expect("x" * (MAX_ID_BYTES + 1)) is None
     assert expect("") is None
     assert expect("uav1") == ("uav1", reply_prefix("uav1"))
+
+
+def test_what_to_expect_is_kept_for_a_swarm_and_no_more(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(fixed_layout, "_expected", {})
+    monkeypatch.setattr(fixed_layout, "_EXPECTED_KEPT", 3)
+    first = expect("uav1")
+    assert expect("uav1") is first
+    for n in range(10):
+        expect(f"extra{n}")
+    assert len(fixed_layout._expected) == 3
+    late = expect("uav9")
+    assert late == ("uav9", reply_prefix("uav9")) and expect("uav9") is not late
+    assert unpack_reply(encode_reply(Reply("uav9", 1, 0.0, 0.0, None)), "uav9") is not None

@@ -166,6 +166,36 @@ def test_bad_reply_fields(path: tuple[str | int, ...], value: object) -> None:
         decode_reply(_mutated(encode_reply(REPLY), path, value))
 
 
+# A wrong type (or shape) is reported by the field's wire key.
+NAMED: list[tuple[Decoder, bytes, tuple[str | int, ...], object, str]] = [
+    (decode_poll, encode_poll(POLL), ("seq",), True, "'seq'"),
+    (decode_poll, encode_poll(POLL), ("seq",), -1, "'seq'"),
+    (decode_poll, encode_poll(POLL), ("lt",), "0", "'lt'"),
+    (decode_poll, encode_poll(POLL), ("e",), KeyError, "'e'"),
+    (decode_poll, encode_poll(POLL), ("want",), "all", "'want'"),
+    (decode_poll, encode_poll(POLL), ("ack",), [1, UINT32 + 1], "'ack'"),
+    (decode_reply, encode_reply(REPLY), ("from",), "", "'from'"),
+    (decode_reply, encode_reply(REPLY), ("poll",), 1.0, "'poll'"),
+    (decode_reply, encode_reply(REPLY), ("st",), None, "'st'"),
+    (decode_reply, encode_reply(REPLY), ("frag",), [], "'frag'"),
+    (decode_reply, encode_reply(REPLY), ("frag", "data"), "text", "'frag.data'"),
+    (decode_reply, encode_reply(REPLY), ("frag", "i"), True, "'frag.i'"),
+    (decode_reply, encode_reply(REPLY), ("frag", "n"), UINT32 + 1, "'frag.n'"),
+    (decode_reply, encode_reply(REPLY), ("frag", "crc"), -1, "'frag.crc'"),
+    (decode_reply, encode_reply(REPLY), ("frag", "g"), "now", "'frag.g'"),
+    (decode_control, encode_control(CONTROL), ("seq",), 1.5, "'seq'"),
+    (decode_control, encode_control(CONTROL), ("entries",), {"a": [[0, "0", 0, 0]]},
+     "'entries'"),
+]
+
+
+@pytest.mark.parametrize(("decode", "base", "path", "value", "named"), NAMED)
+def test_a_bad_field_is_named(decode: Decoder, base: bytes, path: tuple[str | int, ...],
+                              value: object, named: str) -> None:
+    with pytest.raises(WireError, match=named):
+        decode(_mutated(base, path, value))
+
+
 CONTROL_BAD: list[tuple[tuple[str | int, ...], object]] = [
     (("seq",), -1), (("seq",), True), (("lt",), math.inf), (("entries",), []),
     (("entries",), {"": []}), (("entries",), {"x" * (MAX_ID_BYTES + 1): []}),

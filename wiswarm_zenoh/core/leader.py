@@ -148,7 +148,7 @@ class Leader:
             self._events.append(Stale(follower, "reply from a follower that is not a member"))
             return
         try:
-            reply = decode_reply(data, peer.expected)
+            reply = decode_reply(data, follower)
         except WireError as exc:
             self._reject(peer, follower, str(exc))
             return

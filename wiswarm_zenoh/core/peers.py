@@ -18,7 +18,6 @@ from wiswarm_zenoh.core.aoi import AoITracker, FloatArray
 from wiswarm_zenoh.core.clock import ClockOffsetEstimator
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
-from wiswarm_zenoh.core.fixed_layout import Expected, expect
 from wiswarm_zenoh.core.fragments import Reassembler
 from wiswarm_zenoh.core.poll_timing import PollTiming
 from wiswarm_zenoh.core.wire import Want
@@ -63,7 +62,6 @@ class Peer:
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
     unsettled_tau: float = float("-inf")  # an update taken, its checksum not verified yet
-    expected: Expected | None = None  # how its replies start (see ``fixed_layout.expect``)
     probe_at: float = float("-inf")  # when a silent follower may be probed next
     probe_gap: float = 0.0  # the current back-off between probes (0: not silent)
     # (seq, sent at) of its latest polls that went unanswered: a reply to one of them,
@@ -80,7 +78,6 @@ class Peer:
     @classmethod
     def new(cls, follower: str, config: LeaderConfig, now: float) -> Peer:
         return cls(
-            expected=expect(follower),
             aoi=AoITracker(now),
             reliability=ReliabilityEstimator(config.window, config.prior_p),
             weight=WeightEMA(config.alpha, config.initial_weight),

@@ -1,21 +1,22 @@
 """Wire messages (DESIGN.md section 4): msgpack maps with a format version ``v``.
 
 Decoders check every type, size and range and raise nothing but ``WireError``: the bytes
-come from the network and may be anything.
+come from the network and may be anything. Polls and replies are read in the fixed layout
+(``fixed_layout``) when they are in it, else by the strict decoders here, which check each
+field's type; both then apply the message's one checker of the protocol's rules
+(``messages``), so a value one refuses the other refuses too, for the same reason.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, NoReturn
+from typing import Any, TypeGuard, cast
 
 import msgpack
 from zlib_ng import zlib_ng
 
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.fixed_layout import (
-    Expected,
     pack_poll,
     pack_reply,
     reply_prefix,
@@ -23,20 +24,24 @@ from wiswarm_zenoh.core.fixed_layout import (
     unpack_reply,
 )
 from wiswarm_zenoh.core.messages import (
-    MAX_CONTROL_ENTRIES,
+    ID_RULE,
     MAX_ID_BYTES,
-    MAX_INT,
-    MAX_SIZE,
     MAX_WAYPOINTS,
     UINT32,
+    UINT64,
     VERSION,
+    WANTS,
     Control,
     FragmentData,
     Poll,
     Reply,
     Want,
     Waypoint,
+    control_fault,
     id_fits,
+    poll_fault,
+    reply_fault,
+    waypoints_fault,
 )
 
 __all__ = [
@@ -52,10 +57,8 @@ __all__ = [
 # update is checked once at each end of its poll.
 checksum: Callable[[bytes], int] = zlib_ng.crc32
 
-
-def _pack(obj: dict[str, Any]) -> bytes:
-    packed: bytes = msgpack.packb(obj, use_bin_type=True)
-    return packed
+_pack: Callable[[object], bytes] = msgpack.packb  # bytes as bin, str as str (msgpack >= 1)
+encode_poll = pack_poll  # the leader's polls are all in the fixed layout
 
 
 def _unpack(data: bytes, kind: str) -> dict[str, Any]:
@@ -76,36 +79,33 @@ def _unpack(data: bytes, kind: str) -> dict[str, Any]:
     return obj
 
 
-# Decoders run on every poll and reply: they test the common case inline (``x - x`` is
-# 0.0 for a finite float only) and call these helpers, which say what is wrong, when it
-# fails. A short id (at most 32 characters) fits MAX_ID_BYTES in any encoding.
-SHORT_ID = MAX_ID_BYTES // 4
+# Readers of a field's wire type (what is asked beyond it is the message's checker's).
+# msgpack's true and false are not integers here, and an integer is also a number.
+
+def _is_uint(value: object, hi: int) -> TypeGuard[int]:
+    return type(value) is int and 0 <= value <= hi
 
 
-def _int(obj: Mapping[str, Any], key: str, lo: int = 0, hi: int = MAX_INT) -> int:
+def _uint(obj: Mapping[str, Any], key: str, hi: int = UINT64, within: str = "") -> int:
     value = obj.get(key)
-    if type(value) is not int or not lo <= value <= hi:
-        raise WireError(f"field {key!r} must be an integer in [{lo}, {hi}], got {value!r}")
+    if not _is_uint(value, hi):
+        raise WireError(f"field '{within}{key}' must be an integer in [0, {hi}], got {value!r}")
     return value
 
 
-def _float(obj: Mapping[str, Any], key: str) -> float:
+def _float(obj: Mapping[str, Any], key: str, within: str = "") -> float:
     value = obj.get(key)
-    if not (isinstance(value, float | int) and not isinstance(value, bool)):
-        raise WireError(f"field {key!r} must be a number, got {value!r}")
-    if not math.isfinite(value):
-        raise WireError(f"field {key!r} must be finite, got {value!r}")
-    return float(value)
+    if type(value) is float:
+        return value
+    if type(value) is int:
+        return float(value)
+    raise WireError(f"field '{within}{key}' must be a number, got {value!r}")
 
 
-def _ident(value: object, what: str) -> str:
-    if not (isinstance(value, str) and id_fits(value)):
-        raise WireError(f"{what} must be a non-empty string of at most {MAX_ID_BYTES} bytes")
-    return value
-
-
-def encode_poll(poll: Poll) -> bytes:
-    return pack_poll(poll)
+def _check(fault: str | None) -> None:
+    """Raise what a message's checker found wrong, if anything."""
+    if fault is not None:
+        raise WireError(fault)
 
 
 def decode_poll(data: bytes) -> Poll:
@@ -116,26 +116,20 @@ def decode_poll(data: bytes) -> Poll:
 
 def _decode_poll_any(data: bytes) -> Poll:
     obj = _unpack(data, "poll")
-    seq, lt = obj.get("seq"), obj.get("lt")
-    if type(seq) is not int or not 0 <= seq <= MAX_INT:
-        seq = _int(obj, "seq")
-    if type(lt) is not float or lt - lt != 0.0:
-        lt = _float(obj, "lt")
     ack_raw = obj.get("ack")
     ack: tuple[int, int] | None = None
     if ack_raw is not None:
-        if not isinstance(ack_raw, list) or len(ack_raw) != 2:
-            raise WireError("field 'ack' must be null or [update_seq, index]")
-        acked, index = ack_raw
-        if type(acked) is not int or type(index) is not int or not (
-            0 <= acked <= MAX_INT and 0 <= index <= UINT32
-        ):
-            raise WireError(f"field 'ack' must be [update_seq, index] in range, got {ack_raw!r}")
-        ack = (acked, index)
+        if not (isinstance(ack_raw, list) and len(ack_raw) == 2
+                and _is_uint(ack_raw[0], UINT64) and _is_uint(ack_raw[1], UINT32)):
+            raise WireError("field 'ack' must be null or [update_seq, index] in [0, "
+                            f"{UINT64}] x [0, {UINT32}], got {ack_raw!r}")
+        ack = (ack_raw[0], ack_raw[1])
     want = obj.get("want")
-    if want not in ("next", "fresh"):
-        raise WireError(f"field 'want' must be 'next' or 'fresh', got {want!r}")
-    return Poll(seq, lt, ack, want, _int(obj, "e"))
+    if want not in WANTS:  # a type (Literal): the fixed layout has a shape for each
+        raise WireError(f"field 'want' must be one of {WANTS}, got {want!r}")
+    poll = Poll(_uint(obj, "seq"), _float(obj, "lt"), ack, cast(Want, want), _uint(obj, "e"))
+    _check(poll_fault(poll))
+    return poll
 
 
 def encode_reply(reply: Reply) -> bytes:
@@ -143,68 +137,48 @@ def encode_reply(reply: Reply) -> bytes:
                       reply.sent_at, reply.fragment)
 
 
+def decode_reply(data: bytes, follower: str | None = None) -> Reply:
+    """A reply in the fixed layout followers send, or else in any valid encoding.
+    ``follower``, whom the reply answers, spares parsing that id (see ``unpack_reply``)."""
+    reply = unpack_reply(data, follower) if type(data) is bytes else None
+    return _decode_reply_any(data) if reply is None else reply
+
+
 def _decode_fragment(body: object) -> FragmentData:
     if not isinstance(body, dict):
         raise WireError("field 'frag' must be null or a map")
     data = body.get("data")
     if not isinstance(data, bytes):
-        raise WireError("fragment 'data' must be bytes")
-    seq, at, index, count = body.get("u"), body.get("g"), body.get("i"), body.get("n")
-    total, crc = body.get("size"), body.get("crc")
-    if not (type(seq) is int and type(index) is int and type(count) is int
-            and type(total) is int and type(crc) is int and 0 <= seq <= MAX_INT
-            and 0 <= index < count <= UINT32 and len(data) <= total <= MAX_SIZE
-            and 0 <= crc <= UINT32):
-        _fragment_error(body, data)
-    if type(at) is not float or at - at != 0.0:
-        at = _float(body, "g")
-    return FragmentData(seq, at, index, count, total, crc, data)
-
-
-def _fragment_error(body: dict[str, Any], data: bytes) -> NoReturn:
-    """Raise the WireError that says which fragment field is wrong."""
-    count = _int(body, "n", lo=1, hi=UINT32)
-    _int(body, "i", hi=count - 1)
-    total = _int(body, "size", hi=MAX_SIZE)
-    if len(data) > total:
-        raise WireError(f"fragment of {len(data)} bytes exceeds the update's size {total}")
-    _int(body, "u")
-    _int(body, "crc", hi=UINT32)
-    raise WireError("malformed fragment")  # unreachable: one of the checks above failed
-
-
-def decode_reply(data: bytes, expected: Expected | None = None) -> Reply:
-    """A reply in the fixed layout followers send, or else in any valid encoding
-    (``expected``: see ``fixed_layout.expect``)."""
-    reply = unpack_reply(data, expected) if type(data) is bytes else None
-    return _decode_reply_any(data) if reply is None else reply
+        raise WireError(f"field 'frag.data' must be bytes, got {type(data).__name__}")
+    at = "frag."
+    return FragmentData(_uint(body, "u", within=at), _float(body, "g", at),
+                        _uint(body, "i", UINT32, at), _uint(body, "n", UINT32, at),
+                        _uint(body, "size", within=at), _uint(body, "crc", UINT32, at), data)
 
 
 def _decode_reply_any(data: bytes) -> Reply:
     obj = _unpack(data, "reply")
-    sender, seq, rt, st = obj.get("from"), obj.get("poll"), obj.get("rt"), obj.get("st")
-    if type(sender) is not str or not 0 < len(sender) <= SHORT_ID:
-        sender = _ident(sender, "field 'from'")
-    if type(seq) is not int or not 0 <= seq <= MAX_INT:
-        seq = _int(obj, "poll")
-    if type(rt) is not float or rt - rt != 0.0:
-        rt = _float(obj, "rt")
-    if type(st) is not float or st - st != 0.0:
-        st = _float(obj, "st")
+    sender = obj.get("from")
+    if not id_fits(sender):
+        raise WireError(f"field 'from' must be {ID_RULE}, got {sender!r}")
     body = obj.get("frag")
-    return Reply(sender, seq, rt, st, None if body is None else _decode_fragment(body))
+    reply = Reply(sender, _uint(obj, "poll"), _float(obj, "rt"), _float(obj, "st"),
+                  None if body is None else _decode_fragment(body))
+    _check(reply_fault(reply))
+    return reply
 
 
 def validate_waypoints(waypoints: Sequence[Sequence[float]]) -> list[Waypoint]:
-    """Check a caller's waypoints: a list of at most MAX_WAYPOINTS finite (t, x, y, z)."""
-    if len(waypoints) > MAX_WAYPOINTS:
-        raise ValueError(f"at most {MAX_WAYPOINTS} waypoints, got {len(waypoints)}")
-    checked: list[Waypoint] = []
-    for wp in waypoints:
-        if len(wp) != 4 or not all(math.isfinite(float(c)) for c in wp):
-            raise ValueError(f"a waypoint must be 4 finite numbers (t, x, y, z), got {wp!r}")
-        checked.append((float(wp[0]), float(wp[1]), float(wp[2]), float(wp[3])))
-    return checked
+    """A caller's waypoints as floats, if they fit (``messages.waypoints_fault``)."""
+    fault = waypoints_fault(waypoints)
+    if fault is not None:
+        raise ValueError(fault)
+    return _floats(waypoints)
+
+
+def _floats(waypoints: Sequence[Sequence[float]]) -> list[Waypoint]:
+    """Checked waypoints as tuples of floats (the wire may carry integers)."""
+    return [(float(t), float(x), float(y), float(z)) for t, x, y, z in waypoints]
 
 
 def pack_entries(entries: Mapping[str, Sequence[Waypoint]]) -> bytes:
@@ -212,8 +186,8 @@ def pack_entries(entries: Mapping[str, Sequence[Waypoint]]) -> bytes:
     return _pack({k: [list(w) for w in v] for k, v in entries.items()})
 
 
-_CONTROL_HEAD = b"\x86" + b"".join(msgpack.packb(x) for x in ("v", VERSION, "t", "control"))
-_SEQ, _LT, _EPOCH, _ENTRIES = (msgpack.packb(k) for k in ("seq", "lt", "e", "entries"))
+_CONTROL_HEAD = b"\x86" + b"".join(_pack(x) for x in ("v", VERSION, "t", "control"))
+_SEQ, _LT, _EPOCH, _ENTRIES = (_pack(k) for k in ("seq", "lt", "e", "entries"))
 
 
 def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes,
@@ -221,8 +195,8 @@ def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes,
     """A control message around already packed entries: the leader sends one per poll,
     and re-encoding every follower's waypoints each time would cost O(N) per poll."""
     return b"".join(
-        (_CONTROL_HEAD, _SEQ, msgpack.packb(seq), _LT, msgpack.packb(float(leader_time)),
-         _EPOCH, msgpack.packb(epoch), _ENTRIES, packed_entries)
+        (_CONTROL_HEAD, _SEQ, _pack(seq), _LT, _pack(float(leader_time)), _EPOCH,
+         _pack(epoch), _ENTRIES, packed_entries)
     )
 
 
@@ -231,25 +205,18 @@ def encode_control(control: Control) -> bytes:
                                  pack_entries(control.entries), control.epoch)
 
 
-def _decode_waypoints(raw: object) -> list[Waypoint]:
-    if not isinstance(raw, list) or len(raw) > MAX_WAYPOINTS:
-        raise WireError(f"control entry must be a list of at most {MAX_WAYPOINTS} waypoints")
-    for wp in raw:
-        if not isinstance(wp, list) or any(type(c) not in (int, float) for c in wp):
-            raise WireError(f"a waypoint must be a list of numbers, got {wp!r}")
-    try:
-        return validate_waypoints(raw)
-    except (ValueError, TypeError) as exc:
-        raise WireError(f"bad waypoint: {exc}") from None
+def _number_lists(raw: object) -> bool:
+    """Whether ``raw`` is a list of lists of numbers (an entry's waypoints, unchecked)."""
+    return isinstance(raw, list) and all(
+        isinstance(wp, list) and all(type(c) is float or type(c) is int for c in wp)
+        for wp in raw)
 
 
 def decode_control(data: bytes) -> Control:
     obj = _unpack(data, "control")
-    entries_raw = obj.get("entries")
-    if not isinstance(entries_raw, dict) or len(entries_raw) > MAX_CONTROL_ENTRIES:
-        raise WireError("field 'entries' must be a map of follower id to waypoints")
-    entries = {
-        _ident(k, "control entry key"): _decode_waypoints(v) for k, v in entries_raw.items()
-    }
-    return Control(seq=_int(obj, "seq"), leader_time=_float(obj, "lt"), entries=entries,
-                   epoch=_int(obj, "e"))
+    entries = obj.get("entries")
+    if not (isinstance(entries, dict) and all(_number_lists(v) for v in entries.values())):
+        raise WireError("field 'entries' must be a map of follower id to lists of numbers")
+    seq, leader_time, epoch = _uint(obj, "seq"), _float(obj, "lt"), _uint(obj, "e")
+    _check(control_fault(Control(seq, leader_time, entries, epoch)))
+    return Control(seq, leader_time, {k: _floats(v) for k, v in entries.items()}, epoch)
