@@ -66,6 +66,7 @@ BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 # Flags only some systems take (default None, so that one given shows) and who takes them.
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
                "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
+               "upstream": ("wiswarm",), "site": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
@@ -167,8 +168,13 @@ def _leader(args: argparse.Namespace) -> int:
         return _receiver(args)
     config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha"))
     control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
+    if args.site is not None and args.upstream is None:
+        raise UsageError("--site names this leader's site in the parent swarm: give the "
+                         "parent with --upstream PARENT_SWARM")
+    if args.upstream == args.swarm:
+        raise UsageError(f"--upstream must be another swarm than --swarm ({args.swarm!r})")
     options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record,
-                            name=args.name)
+                            name=args.name, upstream=args.upstream, site=args.site)
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
@@ -271,6 +277,12 @@ def register(subparsers: Any) -> None:
                         help="wiswarm: this leader's name among the swarm's leaders (default: "
                         "host and process id). Any number may run: the oldest polls, the "
                         "others stand by and take over when it goes")
+    leader.add_argument("--upstream", metavar="PARENT_SWARM", type=node_name("swarm name"),
+                        help="wiswarm: an edge leader: also a follower of the leader of "
+                        "PARENT_SWARM (a cloud leader), which polls this site's followers "
+                        "through it as <site>.<follower> and sends their control down")
+    leader.add_argument("--site", type=node_name("site name"),
+                        help="with --upstream: this site's name there (default: --swarm)")
     leader.add_argument("--record", metavar="CSV", type=writable_file(),
                         help="write every delivery to this file (its directory must exist)")
     _add_common(leader, ("peer", "client"))

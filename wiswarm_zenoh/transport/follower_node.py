@@ -59,10 +59,13 @@ class FollowerNode:
         self._token = session.liveliness().declare_token(self.keys.member(follower_id))
         log.info("follower %s up on %s", follower_id, self._key)
 
-    def offer(self, payload: bytes) -> bool:
-        """Queue an update stamped now; False if rate control or the queue dropped it."""
+    def offer(self, payload: bytes, generated_at: float | None = None) -> bool:
+        """Queue an update stamped now, or at ``generated_at`` (this node's clock: an
+        update made elsewhere and relayed, see ``edge``); False if rate control or the
+        queue dropped it."""
         with self._lock:
-            return self._core.offer(payload, self._clock())
+            return self._core.offer(payload,
+                                    self._clock() if generated_at is None else generated_at)
 
     @property
     def polls(self) -> int:

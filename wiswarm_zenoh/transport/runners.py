@@ -13,11 +13,14 @@ import multiprocessing
 import signal
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+import zenoh
+
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport.edge import Upstream
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.frames import (
     FRAME_BYTES,
@@ -196,6 +199,8 @@ class LeaderOptions:
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
     name: str | None = None  # the leader's name among its swarm's leaders (see election)
+    upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
+    site: str | None = None  # its name there (followers appear as <site>.<follower>)
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -206,21 +211,55 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
     record = (DeliveryRecord(options.record, options.record_capture_stamps)
               if options.record else None)
     try:
-        with spec.open() as session, LeaderNode(
-            session, options.swarm, options.config, on_delivery=record,
-            control_period=options.control_period, name=options.name,
-        ) as node:
-            if ready is not None:
-                ready.set()
-            watch = RouterWatch(session, f"leader of {options.swarm!r}")
+        with spec.open() as session, _edge(session, options) as upstream:
+            hand_on: list[Callable[[Delivered], None]] = [] if record is None else [record]
+            if upstream is not None:
+                hand_on.append(upstream.on_delivery)
 
-            def tick() -> None:
-                watch.check()
-                if show is not None:
-                    show(node)
+            def on_delivery(event: Delivered) -> None:
+                for each in hand_on:
+                    each(event)
 
-            wait_until_stopped(stop, options.duration, tick)
+            node = LeaderNode(
+                session, options.swarm, options.config,
+                on_delivery=on_delivery if hand_on else None,
+                on_join=None if upstream is None else upstream.on_join,
+                on_leave=None if upstream is None else upstream.on_leave,
+                control_period=options.control_period, name=options.name)
+            if upstream is not None:
+                upstream.set_control = node.set_control
+            _lead(node, session, options, stop, ready, show)
     finally:
         if record is not None:
             record.close()
     return node
+
+
+@contextlib.contextmanager
+def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream | None]:
+    """The upstream side of an edge leader (``--upstream``), or None."""
+    if options.upstream is None:
+        yield None
+        return
+    upstream = Upstream(session, options.upstream, options.site or options.swarm)
+    try:
+        yield upstream
+    finally:
+        upstream.close()
+
+
+def _lead(node: LeaderNode, session: zenoh.Session, options: LeaderOptions,
+          stop: StopSignal, ready: ReadySignal | None,
+          show: Callable[[LeaderNode], None] | None) -> None:
+    """Run ``node`` until stopped; ``show`` it a few times a second."""
+    with node:
+        if ready is not None:
+            ready.set()
+        watch = RouterWatch(session, f"leader of {options.swarm!r}")
+
+        def tick() -> None:
+            watch.check()
+            if show is not None:
+                show(node)
+
+        wait_until_stopped(stop, options.duration, tick)

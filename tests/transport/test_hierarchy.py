@@ -1,0 +1,67 @@
+"""An edge leader that is a follower upstream: a cloud leader polls (site, follower)
+pairs through it, ages add up across the two hops, control flows down. Real sessions
+on loopback."""
+
+from __future__ import annotations
+
+import struct
+import threading
+import time
+
+import zenoh
+
+from wiswarm_zenoh.core import Waypoint
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode
+from wiswarm_zenoh.transport.edge import Upstream
+
+from .helpers import WAIT, Recorder, Sessions
+
+SITE_SKEW = 5.0  # the edge host's clock is 5 s ahead
+
+
+def _stamped() -> bytes:
+    """A frame carrying its true capture time (this host's clock), as the testbed's."""
+    return struct.pack("<d", time.time()) + bytes(2000)
+
+
+def test_a_cloud_leader_gets_each_sites_followers_with_their_true_ages(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    obeyed: list[list[Waypoint]] = []
+    told = threading.Condition()
+
+    def on_control(entry: list[Waypoint]) -> None:
+        with told:
+            obeyed.append(entry)
+            told.notify_all()
+
+    for fid in ("f1", "f2"):
+        FollowerNode(sessions.node(port), "site1", fid, sample_on_poll=_stamped,
+                     on_control=on_control if fid == "f1" else None)
+    edge_session = sessions.node(port)
+
+    def skewed() -> float:
+        return time.time() + SITE_SKEW
+
+    upstream = Upstream(edge_session, "cloud", "s1", clock=skewed)
+    edge = LeaderNode(edge_session, "site1", clock=skewed, name="edge",
+                      on_join=upstream.on_join, on_leave=upstream.on_leave,
+                      on_delivery=upstream.on_delivery)
+    upstream.set_control = edge.set_control
+    try:
+        with LeaderNode(sessions.node(port), "cloud", name="cloud",
+                        **recorder.callbacks()) as cloud:
+            for pair in ("s1.f1", "s1.f2"):
+                recorder.wait(pair, lambda r, pair=pair: r.count(pair) >= 20)
+            assert sorted(cloud.followers) == ["s1.f1", "s1.f2"]
+            cloud.set_control("s1.f1", [(1.0, 2.0, 3.0, 4.0)])
+            with told:
+                assert told.wait_for(lambda: [(1.0, 2.0, 3.0, 4.0)] in obeyed, WAIT)
+    finally:
+        edge.close()
+        upstream.close()
+    for event in recorder.deliveries:
+        made = struct.unpack_from("<d", event.payload)[0]  # the true time, cloud's clock
+        # Each hop's clock estimate errs by up to its round trip's asymmetry: loopback.
+        assert abs(event.generated_at - made) < 0.01, event
+        assert 0.0 <= event.age < 1.0
