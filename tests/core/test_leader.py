@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
-from collections.abc import Mapping
-
 import pytest
 
 from wiswarm_zenoh.core import (
@@ -16,7 +13,6 @@ from wiswarm_zenoh.core import (
     LeaderConfig,
     Rejected,
     Stale,
-    TimedOut,
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fragments import checksum
@@ -102,65 +98,6 @@ def test_asymmetric_delays_use_the_fastest_exchange() -> None:
         on_reply(leader, "a", raw, t1 + up + down)
     assert leader.stats("a", 30.0).clock_offset_s == pytest.approx(5.0)
 
-
-def test_timeout_lowers_p_hat_and_only_the_timer_ends_an_unanswered_poll() -> None:
-    leader, followers = _setup("a", config=LeaderConfig(window=20, prior_p=1.0, timeout=0.3,
-                                                        adaptive_timeout=False))
-    request = poll(leader, 0.0)
-    assert on_timer(leader, 0.29) == []
-    assert on_timer(leader, 0.3) == [TimedOut("a", request.poll_seq)]
-    assert on_timer(leader, 0.4) == []
-    assert leader.stats("a", 0.3).p_hat == pytest.approx(0.95)
-    request = poll(leader, 1.0)
-    assert leader.get_timer() == pytest.approx(1.3)
-    assert on_timer(leader, 1.3) == [TimedOut("a", request.poll_seq)]
-    s = leader.stats("a", 2.0)
-    assert (s.timeouts, s.polls) == (2, 2)
-    assert s.p_hat == pytest.approx(0.9)
-    exchange(leader, followers, 2.0)
-    assert leader.get_timer() is None
-    assert on_timer(leader, 2.5) == []  # a valid reply came: answered
-    assert leader.stats("a", 2.1).p_hat == pytest.approx(0.9)
-    assert leader.stats("a", 2.1).timeouts == 2
-
-
-def test_reply_after_the_timeout_is_stale_and_lengthens_the_next_timeout() -> None:
-    leader, followers = _setup("a")
-    followers["a"].offer(b"x", 0.0)
-    first = poll(leader, 0.0)  # a quick answer: the timeout shrinks to the floor
-    on_reply(leader, "a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
-    request = poll(leader, 1.0)
-    assert request.deadline == pytest.approx(1.0 + leader.config.timeout_floor)
-    raw = followers["a"].on_poll(request.payload, 1.1, 1.1)
-    on_timer(leader, request.deadline)
-    before = _aoi(leader, "a", 2.0)
-    assert on_reply(leader, "a", raw, 1.5) == []  # late, not bad: nothing to report
-    assert _aoi(leader, "a", 2.0) == before
-    assert leader.stats("a", 2.0).stale == 1
-    # twice the late one, up to the ceiling
-    assert poll(leader, 2.0).deadline == pytest.approx(2.0 + min(2 * 0.5, leader.config.timeout))
-    again = followers["a"].on_poll(request.payload, 2.1, 2.1)  # the same late reply again
-    assert on_reply(leader, "a", again, 2.2) == [Stale("a", "reply to poll 2, not the one "
-                                                          "in flight")]
-
-
-
-def test_a_late_reply_to_an_earlier_timed_out_poll_still_lengthens_the_timeout() -> None:
-    """On a link slower than measured the leader polls again at each timeout, and the
-    replies queue behind each other: the first late reply answers the first of those
-    polls, not the last."""
-    leader, followers = _setup("a")
-    followers["a"].offer(b"x", 0.0)
-    first = poll(leader, 0.0)
-    on_reply(leader, "a", followers["a"].on_poll(first.payload, 0.001, 0.001), 0.002)
-    sent = []
-    for k in range(3):
-        request = poll(leader, 1.0 + k)
-        sent.append(request)
-        on_timer(leader, request.deadline)
-    raw = followers["a"].on_poll(sent[0].payload, 1.2, 1.2)
-    assert on_reply(leader, "a", raw, 3.3) == []  # late, not bad: nothing to report
-    assert poll(leader, 4.0).deadline == pytest.approx(4.0 + leader.config.timeout)
 
 def test_duplicate_reply_is_stale() -> None:
     leader, followers = _setup("a")
@@ -327,58 +264,6 @@ def test_weight_floor_keeps_a_follower_without_urgency_in_the_schedule() -> None
     assert exchange(leader, followers, 10.0)[0].follower == "a"  # 9.1^2 > 0.1 * 10^2
     # a: 0.51^2 = 0.26 < b: 0.1 * 10.5^2 = 11 (with weight 0, b would never be chosen)
     assert poll(leader, 10.5).follower == "b"
-
-
-def _run_with_a_dead_follower(
-    leader: Leader, followers: Mapping[str, Follower], until: float, start: float = 0.0
-) -> tuple[list[float], float]:
-    """Poll from ``start`` until ``until``; "dead" never answers. Returns the times it
-    was polled, and the time reached."""
-    t, dead_polls = start, []
-    while t < until:
-        request = poll(leader, t)
-        if request.follower == "dead":
-            dead_polls.append(t)
-            t = request.deadline
-            on_timer(leader, t)
-        else:
-            followers["a"].offer(b"x", t)
-            answer(leader, followers, request, t)
-            t += 0.002
-    return dead_polls, t
-
-
-def test_silent_follower_is_probed_with_back_off_and_cannot_starve_the_others() -> None:
-    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=4.0)
-    leader, followers = _setup("a", "dead", config=config)
-    dead_polls, t = _run_with_a_dead_follower(leader, followers, 30.0)
-    assert leader.stats("dead", t).p_hat == 0.0
-    # 5 polls to fall silent, then probes 0.5, 1, 2, 4, 4, 4... s apart
-    probes = dead_polls[5:]
-    gaps = [round(b - a - 0.1, 6) for a, b in itertools.pairwise(probes)]
-    assert gaps[:4] == pytest.approx([1.0, 2.0, 4.0, 4.0], abs=0.01)
-    assert 8 <= len(dead_polls) <= 14
-    # the healthy follower is served all the time in between: its age stays small
-    assert leader.stats("a", t).mean_aoi_s < 0.05
-
-
-def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
-    config = LeaderConfig(window=2, timeout=0.1, probe_interval=0.5)
-    leader, followers = _setup("a", "dead", config=config)
-    dead_polls, t = _run_with_a_dead_follower(leader, followers, 0.5)
-    assert len(dead_polls) == 2 and leader.stats("dead", t).p_hat == 0.0
-    probe_due = dead_polls[-1] + 0.1 + 0.5
-    quiet, t = _run_with_a_dead_follower(leader, followers, probe_due - 0.01, start=t)
-    assert quiet == []
-    while (request := poll(leader, t)).follower != "dead":
-        followers["a"].offer(b"x", t)
-        answer(leader, followers, request, t)
-        t += 0.002
-    assert probe_due <= t < probe_due + 0.01
-    followers["dead"].offer(b"back", t)
-    answer(leader, followers, request, t)
-    assert leader.stats("dead", t + 0.01).p_hat == 0.5
-    assert leader.stats("dead", t + 0.01).deliveries == 1
 
 
 def test_first_update_generated_before_the_follower_was_added_is_delivered() -> None:

@@ -20,3 +20,6 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         for item in items:
             if item.get_closest_marker("testbed") is not None:
                 item.add_marker(skip)
+
+
+from .relay_helpers import no_relay_thread_left  # noqa: E402,F401  (a fixture)
