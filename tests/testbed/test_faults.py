@@ -77,3 +77,21 @@ def test_killing_the_active_leader_hands_the_swarm_to_a_standby(tmp_path: Path) 
         swarm.wait_deliveries(names, 10, after=killed, timeout=WAIT, leader="standby")
         assert all(p.popen.poll() is None and p.popen.pid == pids[name]
                    for name, p in swarm.followers.items())  # no follower restarted
+
+
+def test_after_a_partition_heals_one_leader_polls_again(tmp_path: Path) -> None:
+    """The router killed and restarted: each leader lost sight of the other (the standby
+    may lead meanwhile); once they see each other again, the older leads alone."""
+    names = ["f0", "f1"]
+    with FaultySwarm(tmp_path, names, standbys=["standby"]) as swarm:
+        swarm.wait_deliveries(names, 20)
+        swarm.kill_router()
+        standby = swarm.standbys["standby"]
+        standby.wait_for("leader standby is active", timeout=WAIT)  # it lost the leader
+        back = swarm.start_router()
+        standby.wait_for("leader standby stands by (an older leader is active)",
+                         timeout=WAIT)
+        swarm.wait_deliveries(names, 20, after=back, timeout=WAIT)
+        settled = time.time()
+        swarm.wait_deliveries(names, 50, after=settled, timeout=WAIT)
+        assert not [d for d in swarm.deliveries("standby") if d.delivered_at > settled + 0.5]
