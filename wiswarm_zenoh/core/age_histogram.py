@@ -1,23 +1,24 @@
 """The time an age signal spends at each value, in bounded memory.
 
 A sawtooth segment rises from age ``s`` to ``e`` at slope 1, so the time it spends at
-ages <= x is ``ramp(x - s) - ramp(x - e)``. Summing over segments needs only the count
-and the sum of the starts and of the ends below x. Kept per log-spaced bin (sparse:
-only bins an age fell in), that makes the cumulative time exact at every bin edge and
-linear between bins, so a percentile is exact to within one bin (0.5 % of the age),
-whatever the run's length, in memory that grows with the spread of ages, not with time.
+ages <= x is ``ramp(x - s) - ramp(x - e)``. Summing over segments, the time at ages
+<= x is ``x * (starts - ends below x) - (sum of those starts - sum of those ends)``:
+kept per log-spaced bin (sparse: only bins an age fell in), as one count and one sum per
+bin, that makes the cumulative time exact at every bin edge and linear between bins, so
+a percentile is exact to within one bin (0.5 % of the age), whatever the run's length,
+in memory that grows with the spread of ages, not with time.
 """
 
 from __future__ import annotations
 
 import math
 from array import array
+from bisect import bisect_left
 
 import numpy as np
 import numpy.typing as npt
 
 FloatArray = npt.NDArray[np.float64]
-IntArray = npt.NDArray[np.intp]
 
 SMALLEST_AGE = 1e-5  # seconds; bin 0 holds [0, SMALLEST_AGE)
 BIN_RATIO = 1.005  # consecutive bin edges differ by 0.5 %
@@ -34,76 +35,103 @@ def bin_of(age: float) -> int:
 class AgeHistogram:
     """Time spent at each age, from sawtooth segments (start age, length).
 
-    Each bin an age fell in is a row of four columns (count and sum of the starts, count
-    and sum of the ends), kept as arrays of doubles: adding a segment is two row updates,
-    and a percentile reads the columns through numpy without building them anew (the
-    leader computes several per follower for every stats message, on its poll thread).
-    Rows are in the order their bins appeared; the sorted order is cached until a new bin
-    comes.
+    Rows are the bins an age fell in, sorted by bin, in columns of doubles: segments
+    starting there minus those ending there, the sum of those starts minus the sum of
+    those ends, and the bin's upper edge. Adding a segment is two row updates (a new bin,
+    rare once a run settles, is an insertion); a percentile is a few numpy passes over
+    the columns and no copy of them, because the leader computes one per follower for
+    every stats message, on its poll thread, for hundreds of followers. The segment
+    still open is taken exactly where it is, and adds no row.
     """
 
     def __init__(self) -> None:
-        self._row_of_bin: dict[int, int] = {}
-        self._bins = array("d")  # the bin of each row (as a float: its edges are powers)
-        self._columns = (array("d"), array("d"), array("d"), array("d"))
-        self._order: IntArray | None = None  # rows by increasing bin; None: to sort again
+        self._bins = array("q")
+        self._counts = array("d")
+        self._sums = array("d")
+        self._uppers = array("d")
+        self._total = 0.0  # the length of every segment added
 
     def _row(self, b: int) -> int:
-        row = self._row_of_bin.get(b)
-        if row is None:
-            row = self._row_of_bin[b] = len(self._bins)
-            self._bins.append(b)
-            for column in self._columns:
-                column.append(0.0)
-            self._order = None
+        row = bisect_left(self._bins, b)
+        if row == len(self._bins) or self._bins[row] != b:
+            self._bins.insert(row, b)
+            self._counts.insert(row, 0.0)
+            self._sums.insert(row, 0.0)
+            self._uppers.insert(row, SMALLEST_AGE * BIN_RATIO**b)
         return row
 
     def add(self, start_age: float, length: float) -> None:
         if length > 0:
             end = start_age + length
-            starts, start_sums, ends, end_sums = self._columns
             row = self._row(bin_of(start_age))
-            starts[row] += 1.0
-            start_sums[row] += start_age
+            self._counts[row] += 1.0
+            self._sums[row] += start_age
             row = self._row(bin_of(end))
-            ends[row] += 1.0
-            end_sums[row] += end
+            self._counts[row] -= 1.0
+            self._sums[row] -= end
+            self._total += length
 
     def percentile(self, q: float, open_start: float, open_length: float) -> float:
-        """The q-quantile of age over time, including a still-open segment."""
-        if not self._bins and open_length <= 0:
-            return open_start
-        open_rows: tuple[tuple[int, int, float], ...] = ()
-        if open_length > 0:  # rows for its bins first: the columns cannot grow once viewed
-            open_end = open_start + open_length
-            open_rows = ((self._row(bin_of(open_start)), 0, open_start),
-                         (self._row(bin_of(open_end)), 2, open_end))
-        if self._order is None:
-            self._order = np.argsort(np.frombuffer(self._bins), kind="stable")
-        order = self._order
-        acc = np.column_stack([np.frombuffer(column) for column in self._columns])
-        for row, count, value in open_rows:
-            acc[row, count] += 1.0
-            acc[row, count + 1] += value
-        acc = acc[order]
-        cum = np.cumsum(acc, axis=0)
-        prev = np.vstack([np.zeros(4), cum[:-1]])
-        k_arr = np.frombuffer(self._bins)[order]
-        upper = SMALLEST_AGE * BIN_RATIO**k_arr
-        lower = np.where(k_arr == 0, 0.0, upper / BIN_RATIO)
+        """The q-quantile of age over time, including a still-open segment: the first age
+        at which the time spent at or below it reaches q of the whole."""
+        open_length = max(open_length, 0.0)
+        if not self._bins:
+            return open_start + q * open_length
+        target = q * (self._total + open_length)
+        upper = np.frombuffer(self._uppers)
+        # (ufunc methods: numpy's function wrappers would double the cost of the whole)
+        cum_counts = np.add.accumulate(np.frombuffer(self._counts))
+        cum_sums = np.add.accumulate(np.frombuffer(self._sums))
+        at_upper = upper * cum_counts  # the time at ages up to each row's upper edge
+        at_upper -= cum_sums
+        if open_length > 0:
+            ramp = upper - open_start
+            np.minimum(np.maximum(ramp, 0.0, out=ramp), open_length, out=ramp)
+            at_upper += ramp
+        row = int(at_upper.searchsorted(target))
+        if row == len(self._bins):  # beyond every row: only the open segment rises
+            last = self._uppers[-1]
+            if open_length <= 0:
+                return last
+            return max(last, min(open_start + target - self._total, open_start + open_length))
+        lower = 0.0 if self._bins[row] == 0 else self._uppers[row] / BIN_RATIO
+        at_lower = (lower * (float(cum_counts[row]) - self._counts[row])
+                    - (float(cum_sums[row]) - self._sums[row])
+                    + min(max(lower - open_start, 0.0), open_length))
+        if at_lower < target:  # inside this row's bin
+            x0, x1, f0, f1 = lower, self._uppers[row], at_lower, float(at_upper[row])
+        elif row == 0:  # at the first edge, or before it on the open segment
+            return min(lower, open_start + target) if open_length > 0 else lower
+        else:  # in the gap between the row before and this one
+            x0, x1, f0, f1 = self._uppers[row - 1], lower, float(at_upper[row - 1]), at_lower
+        if open_length <= 0:
+            return _solve(target, x0, x1, f0, f1)
+        return _solve_with_open(target, x0, x1, f0, f1, open_start, open_length)
 
-        def below(x: FloatArray, c: FloatArray) -> FloatArray:
-            result: FloatArray = (x * c[:, 0] - c[:, 1]) - (x * c[:, 2] - c[:, 3])
-            return result
 
-        xs = np.column_stack([lower, upper]).ravel()
-        fs = np.column_stack([below(lower, prev), below(upper, cum)]).ravel()
-        total = float(cum[-1, 3] - cum[-1, 1])
-        target = q * total
-        j = int(np.searchsorted(fs, target, side="left"))
-        if j == 0:
-            return float(xs[0])
-        if j >= len(xs):
-            return float(xs[-1])
-        x0, x1, f0, f1 = xs[j - 1], xs[j], fs[j - 1], fs[j]
-        return float(x1) if f1 <= f0 else float(x0 + (target - f0) * (x1 - x0) / (f1 - f0))
+def _solve(target: float, x0: float, x1: float, f0: float, f1: float) -> float:
+    """Where the line from (x0, f0) to (x1, f1) reaches ``target`` (x1 if it is flat)."""
+    return x1 if f1 <= f0 else x0 + (target - f0) * (x1 - x0) / (f1 - f0)
+
+
+def _solve_with_open(target: float, x0: float, x1: float, f0: float, f1: float,
+                     start: float, length: float) -> float:
+    """``_solve`` where the open segment's ramp, exact, is part of f: its kinks (its
+    start and end ages) inside (x0, x1) split the line in pieces."""
+
+    def ramp(x: float) -> float:
+        return min(max(x - start, 0.0), length)
+
+    closed0, closed1 = f0 - ramp(x0), f1 - ramp(x1)
+
+    def f(x: float) -> float:
+        return closed0 + (closed1 - closed0) * (x - x0) / (x1 - x0) + ramp(x)
+
+    a, fa = x0, f0
+    for kink in (start, start + length):
+        if a < kink < x1:
+            fk = f(kink)
+            if fk >= target:
+                return _solve(target, a, kink, fa, fk)
+            a, fa = kink, fk
+    return _solve(target, a, x1, fa, f1)

@@ -13,6 +13,7 @@ from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from wiswarm_zenoh.core.aoi import AoITracker, FloatArray
 from wiswarm_zenoh.core.clock import ClockOffsetEstimator
@@ -22,6 +23,7 @@ from wiswarm_zenoh.core.fragments import Reassembler
 from wiswarm_zenoh.core.poll_timing import PollTiming
 from wiswarm_zenoh.core.wire import Want
 
+IntArray = npt.NDArray[np.intp]
 LATE_KEPT = 8  # unanswered polls whose late replies still count (see Peer.timed_out)
 
 
@@ -202,11 +204,13 @@ class PeerTable:
         """The silent follower due for a probe first (the smallest probe_at)."""
         if self.few:
             return min(range(len(self.ids)), key=self.probe_at.__getitem__)
-        return int(np.argmin(np.frombuffer(self.probe_at)))
+        return int(np.frombuffer(self.probe_at).argmin())
 
-    def live(self) -> list[int]:
-        """The followers that answer (p > 0), by index."""
+    def live(self) -> list[int] | IntArray:
+        """The followers that answer (p > 0), by index; for many, a numpy array that
+        indexes the columns as it is (a list of a thousand ints, made and read back
+        on every poll while anyone is silent, would cost more than the policy)."""
         if self.few:
             return [i for i, p in enumerate(self.p) if p > 0.0]
-        return [int(i) for i in np.flatnonzero(np.frombuffer(self.p) > 0.0)]
+        return np.flatnonzero(np.frombuffer(self.p) > 0.0)
 

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
-from wiswarm_zenoh.core.peers import PeerTable
+from wiswarm_zenoh.core.peers import IntArray, PeerTable
 from wiswarm_zenoh.core.policies import IndexPolicy, Policy
 from wiswarm_zenoh.core.poll_records import Pick
 
@@ -22,11 +22,11 @@ def choose(table: PeerTable, policy: Policy, slot: float, now: float) -> int:
     if table.probe_at[due] <= now or table.silent == len(table):
         return due
     live = table.live()
-    return live[pick(table, policy, slot, now, live)]
+    return int(live[pick(table, policy, slot, now, live)])
 
 
 def pick(table: PeerTable, policy: Policy, slot: float, now: float,
-         live: list[int] | None) -> int:
+         live: list[int] | IntArray | None) -> int:
     """The policy's pick among all followers, or among those in ``live`` (an index into
     it), by ages in slots; plain floats for a few followers, numpy for many."""
     if table.few:
@@ -59,5 +59,5 @@ def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, pol
     wa, pa, taua = table.arrays()
     indices = policy.index(wa, pa, array_ages_in_slots(taua, at, slot))
     indices[polled] = -np.inf
-    choice = int(np.argmax(indices))
+    choice = int(indices.argmax())
     return Pick(poll_seq, at, choice, float(indices[choice]), policy.index)
