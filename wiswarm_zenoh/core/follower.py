@@ -9,6 +9,7 @@ from wiswarm_zenoh.core.pollers import Poller, Pollers
 from wiswarm_zenoh.core.queues import RateController, Update, UpdateQueue
 from wiswarm_zenoh.core.wire import (
     MAX_ID_BYTES,
+    Control,
     Poll,
     Waypoint,
     decode_control,
@@ -136,7 +137,11 @@ class Follower:
 
         Raises ``WireError`` on malformed bytes and on a leader time outside the window.
         """
-        control = decode_control(data)
+        return self.take_control(decode_control(data), now)
+
+    def take_control(self, control: Control, now: float) -> list[Waypoint] | None:
+        """``on_control`` for a message decoded already (once for all the followers a
+        process hosts)."""
         if not self.control.admit(control, now):
             return None
         entry = control.entries.get(self.follower_id)

@@ -10,6 +10,7 @@ from collections.abc import Callable
 import zenoh
 
 from wiswarm_zenoh.core import Follower, Waypoint, WireError
+from wiswarm_zenoh.core.wire import Control, decode_control
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
@@ -39,19 +40,64 @@ class ControlListener:
         self._lock = lock if lock is not None else threading.Lock()
         self._clock = clock
         self.bad_input = bad_input if bad_input is not None else BadInputLog(log)
-        self._subscriber = session.declare_subscriber(SwarmKeys(swarm).control,
-                                                      self._on_sample)
+        self._shared = SessionControl.join(session, SwarmKeys(swarm).control, self)
 
-    def _on_sample(self, sample: zenoh.Sample) -> None:
+    def take(self, control: Control, key: str) -> None:
+        """A control message on ``key``, decoded once for every listener of the session."""
         try:
-            data = sample.payload.to_bytes()
             with self._lock:
-                entry = self._core.on_control(data, self._clock())
+                entry = self._core.take_control(control, self._clock())
         except WireError as exc:
-            self.bad_input.report(str(sample.key_expr), str(exc))
+            self.bad_input.report(key, str(exc))
             return
         if entry is not None and self._on_control is not None:
             self._on_control(entry)
 
     def close(self) -> None:
-        undeclare(self._subscriber)
+        self._shared.leave(self)
+
+
+_SHARED: dict[tuple[zenoh.Session, str], SessionControl] = {}
+_SHARED_LOCK = threading.Lock()
+
+
+class SessionControl:
+    """A session's one subscription to a swarm's control, shared by every listener on
+    it: a process hosting hundreds of followers decodes each message once, on one
+    thread, instead of waking a thread per follower to decode it again (which made
+    their polls wait long enough to time out)."""
+
+    def __init__(self, session: zenoh.Session, key: str) -> None:
+        self.session, self.key = session, key
+        self.listeners: list[ControlListener] = []
+        self.subscriber = session.declare_subscriber(key, self._on_sample)
+
+    @staticmethod
+    def join(session: zenoh.Session, key: str, listener: ControlListener) -> SessionControl:
+        with _SHARED_LOCK:
+            shared = _SHARED.get((session, key))
+            if shared is None:
+                shared = _SHARED[(session, key)] = SessionControl(session, key)
+            shared.listeners.append(listener)
+            return shared
+
+    def leave(self, listener: ControlListener) -> None:
+        with _SHARED_LOCK:
+            self.listeners.remove(listener)
+            if self.listeners:
+                return
+            del _SHARED[(self.session, self.key)]
+        undeclare(self.subscriber)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        with _SHARED_LOCK:
+            listeners = list(self.listeners)
+        try:
+            control = decode_control(sample.payload.to_bytes())
+        except WireError as exc:
+            for listener in listeners:
+                listener.bad_input.report(key, str(exc))
+            return
+        for listener in listeners:
+            listener.take(control, key)

@@ -128,15 +128,16 @@ class LeaderNode:
         self._started = clock()
         self._stats_mark = (self._started, 0)  # (time, polls) at the last stats
         self._next_stats = self._started
+        self._stats_round: deque[str] = deque()  # followers this round's stats still owe
+        self._round_start, self._round_size = self._started, 0
+        self._records: list[dict[str, float | int | str]] = []  # this round's so far
         self.latest: list[dict[str, float | int | str]] = []
         self.summary = LeaderSummary([], 0.0, 0.0, self.config.policy, 0.0)
         self._control = session.declare_publisher(self.keys.control, express=True)
-        self._leader_stats = session.declare_publisher(
-            self.keys.leader_stats, encoding=zenoh.Encoding.APPLICATION_JSON
-        )
-        self._members = session.liveliness().declare_subscriber(
-            self.keys.members, self._on_member, history=True
-        )
+        self._leader_stats = session.declare_publisher(self.keys.leader_stats,
+                                                       encoding=zenoh.Encoding.APPLICATION_JSON)
+        self._members = session.liveliness().declare_subscriber(self.keys.members,
+                                                                self._on_member, history=True)
         self._handover = Handover(session, self.keys)
         self._handover.own_epoch = self._leader.epoch
         self._election = Election(session, self.keys, self.name, self._leader.epoch,
@@ -224,12 +225,13 @@ class LeaderNode:
                 if self._election.leading != self._active:
                     self._take_role()
                 now = self._clock()
-                if now >= self._next_stats:
-                    self._publish_stats(now)
                 if self._active:
                     self._poll(now)
                 else:
                     self._hand_on()
+                now = self._clock()
+                if now >= self._next_stats:  # while the poll just sent is on its way
+                    self._publish_stats(now)
                 with self._lock:
                     timer = self._leader.get_timer()
                 wake_at = self._next_stats if timer is None else min(timer, self._next_stats)
@@ -357,25 +359,41 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
-        self._next_stats = now + self._stats_period
+        """The stats of the followers due by ``now``: each follower's once a
+        ``stats_period``, spread evenly over it (a record or two per poll for a thousand
+        followers, not all of them at once while polling waits); the summary on
+        ``leader/stats`` once a round is done."""
         if not self._active:
+            self._next_stats = now + self._stats_period
+            self._stats_round.clear()
             return  # the active leader's stats are the swarm's
-        if self._handover.epoch >= self._leader.epoch:  # two active (a partition): rise
-            self._raise_epoch(take_state=False)
+        if not self._stats_round:  # a new round
+            if self._handover.epoch >= self._leader.epoch:  # two active (a partition): rise
+                self._raise_epoch(take_state=False)
+            with self._lock:
+                self._stats_round = deque(self._leader.followers)
+            self._round_start, self._round_size, self._records = now, len(self._stats_round), []
+        start, size = self._round_start, self._round_size
+        due = min(size, int(size * (now - start) / self._stats_period) + 1)
+        batch = []
         with self._lock:
-            records = [
-                follower_stats(self._leader.stats(f, now), self._transport_errors[f])
-                for f in self._leader.followers
-            ]
+            while self._stats_round and size - len(self._stats_round) < due:
+                follower = self._stats_round.popleft()
+                if follower in self._links:  # not gone since the round began
+                    batch.append(follower_stats(self._leader.stats(follower, now),
+                                                self._transport_errors[follower]))
             polls = self._leader.polls
-        for record in records:
-            link = self._links.get(str(record["follower"]))
-            if link is not None:
-                link.stats.put(to_json(record))
+        for record in batch:
+            self._links[str(record["follower"])].stats.put(to_json(record))
+        self._records += batch
+        if self._stats_round:
+            self._next_stats = start + self._stats_period * (size - len(self._stats_round)) / size
+            return
+        self._next_stats = start + self._stats_period
         mark_time, mark_polls = self._stats_mark
         rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
-        summary = LeaderSummary.of(records, rate, self.config.policy, now - self._started,
-                                   self.name, self._leader.epoch)
+        summary = LeaderSummary.of(self._records, rate, self.config.policy,
+                                   now - self._started, self.name, self._leader.epoch)
         self._leader_stats.put(to_json(summary.as_dict()))
-        self.latest, self.summary = records, summary
+        self.latest, self.summary = self._records, summary
         self._stats_mark = (now, polls)

@@ -33,9 +33,12 @@ class Handover:
         self._epoch = -1  # the highest epoch heard from another leader
         self._control: dict[str, list[Waypoint]] = {}
         self._weights: dict[str, float] = {}
+        # Only other sessions' messages: this leader's own stats (one per follower 2.5
+        # times a second) would otherwise be decoded here, beside its poll thread.
+        remote = zenoh.Locality.REMOTE
         self._subscribers = [
-            session.declare_subscriber(keys.control, self._on_control),
-            session.declare_subscriber(keys.all_stats, self._on_stats),
+            session.declare_subscriber(keys.control, self._on_control, allowed_origin=remote),
+            session.declare_subscriber(keys.all_stats, self._on_stats, allowed_origin=remote),
         ]
 
     @property
