@@ -286,8 +286,7 @@ class LeaderNode:
             if version != sent_version or now - sent_at >= self._control_period:
                 self._control.put(request.control)
                 self._control_sent = (version, now)
-            link, inbox = self._links[request.follower], self._inbox
-            link.poll(request.payload, lambda reply: inbox.put((link, reply)))
+            self._links[request.follower].poll(request.payload)
         self._hand_on()
 
     def _payload(self, link: FollowerLink, reply: zenoh.Reply) -> bytes | None:
@@ -344,7 +343,8 @@ class LeaderNode:
             if joined:
                 if follower not in self._links:
                     self._links[follower] = FollowerLink.open(
-                        self._session, self.keys, follower, self.config.timeout)
+                        self._session, self.keys, follower, self.config.timeout,
+                        lambda link, reply: self._inbox.put((link, reply)))
                 log.info("follower %s joined", follower)
                 if self._on_join is not None:
                     _notify(self._on_join, follower)

@@ -30,11 +30,13 @@ class FollowerLink:
     listening: bool = False  # some subscriber matches ``fresh``
     _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
     querier: zenoh.Querier | None = field(default=None, repr=False)
+    _on_reply: zenoh.handlers.Callback[zenoh.Reply] | None = field(default=None, repr=False)
 
     @classmethod
-    def open(cls, session: zenoh.Session, keys: SwarmKeys, follower: str,
-             ceiling: float) -> FollowerLink:
-        """Declare what polling ``follower`` needs; its gets end after ``ceiling`` s."""
+    def open(cls, session: zenoh.Session, keys: SwarmKeys, follower: str, ceiling: float,
+             on_reply: Callable[[FollowerLink, zenoh.Reply], object]) -> FollowerLink:
+        """Declare what polling ``follower`` needs; its gets end after ``ceiling`` s and
+        bring their replies to ``on_reply`` (one callback for all its polls)."""
         key = keys.update(follower)
         link = cls(
             follower=follower,
@@ -52,6 +54,8 @@ class FollowerLink:
         )
         # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
         # with no thread kept per follower for it.
+        link._on_reply = zenoh.handlers.Callback(lambda reply: on_reply(link, reply),
+                                                 indirect=False)
         link._listener = link.fresh.declare_matching_listener(
             zenoh.handlers.Callback(link._on_matching, indirect=False)
         )
@@ -62,10 +66,10 @@ class FollowerLink:
         link.listening = status.matching
         return link
 
-    def poll(self, payload: bytes, on_reply: Callable[[zenoh.Reply], object]) -> None:
-        """Send a poll: ``on_reply`` gets each reply, on Zenoh's thread."""
-        assert self.querier is not None, "polled after close()"
-        self.querier.get(zenoh.handlers.Callback(on_reply, indirect=False), payload=payload)
+    def poll(self, payload: bytes) -> None:
+        """Send a poll: its replies go to ``on_reply`` (see ``open``), on Zenoh's thread."""
+        assert self.querier is not None and self._on_reply is not None, "polled after close()"
+        self.querier.get(self._on_reply, payload=payload)
 
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
         self.listening = status.matching
