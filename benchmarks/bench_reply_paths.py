@@ -56,30 +56,27 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
-import multiprocessing
 import os
 import statistics
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import zenoh
+from bench_poll import NO_SHM, Job, children
 from reply_pollers import POLL, ChainPoller, FifoPoller, Poller, QueuePoller
 
 from wiswarm_zenoh.transport import SessionSpec
 from wiswarm_zenoh.transport.runners import (
     ReadySignal,
     StopSignal,
-    run_child,
     run_router,
     wait_until_stopped,
 )
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 KEY = "wiswarm/benchreply/{}/update"
-NO_SHM = ("transport/shared_memory/enabled:false",)
 READY_TIMEOUT = 30.0
 
 
@@ -105,35 +102,6 @@ def followers_process(spec: SessionSpec, followers: list[str], reply_bytes: int,
             stack.callback(queryable.undeclare)
         ready.set()
         wait_until_stopped(stop)
-
-
-Job = tuple[Callable[..., object], tuple[Any, ...]]
-
-
-@contextlib.contextmanager
-def children(jobs: list[Job]) -> Iterator[None]:
-    """Each job in a ``spawn`` child, up before the next starts; all stopped at the end
-    (SIGTERM, then SIGKILL after 10 s), whatever happens meanwhile."""
-    ctx = multiprocessing.get_context("spawn")
-    procs: list[Any] = []
-    try:
-        for target, target_args in jobs:
-            ready = ctx.Event()
-            proc = ctx.Process(target=run_child, args=(target, target_args, ready))
-            proc.start()
-            procs.append(proc)
-            if not ready.wait(READY_TIMEOUT):
-                raise RuntimeError("a child process did not come up")
-        yield
-    finally:
-        for proc in procs:
-            if proc.is_alive():
-                proc.terminate()
-        for proc in procs:
-            proc.join(10)
-            if proc.is_alive():
-                proc.kill()
-                proc.join(5)
 
 
 @dataclass(frozen=True)

@@ -80,8 +80,8 @@ class Election:
                 self._claims.add(claim)
             elif claim != self.claim:  # our own token goes only when we close
                 self._claims.discard(claim)
-            active, changed = min(self._claims), min(self._claims) != self._active
-            self._active = active
+            active = min(self._claims)
+            changed, self._active = active != self._active, active
         if changed:
             log.warning("leader %s (started at %d us) is active now%s", active[1], active[0],
                         ": this process" if active == self.claim else "")
