@@ -89,7 +89,7 @@ def test_after_a_partition_heals_one_leader_polls_again(tmp_path: Path) -> None:
         standby = swarm.standbys["standby"]
         standby.wait_for("leader standby is active", timeout=WAIT)  # it lost the leader
         back = swarm.start_router()
-        standby.wait_for("leader standby stands by (an older leader is active)",
+        standby.wait_for("leader standby stands by (an older leader is active: leader)",
                          timeout=WAIT)
         swarm.wait_deliveries(names, 20, after=back, timeout=WAIT)
         settled = time.time()

@@ -96,8 +96,11 @@ def test_lifo_follower_at_100_Hz_is_delivered_a_frame_under_two_intervals_old(
     # it): fewer than 2 intervals old. Counting when the reply is back adds what was made
     # during the round trip (about 1 ms, so rarely one more frame). (Counted when the
     # reply came, not when the application is called: that waits for the next poll.)
-    assert max(behind) <= 2
-    assert sum(b <= 1 for b in behind) >= 0.9 * len(behind)
+    # The first delivery is left out: the first get of a new querier sets up its route
+    # (tens of ms on a busy host), which says nothing of what the queue serves.
+    steady = behind[1:]
+    assert max(steady) <= 2
+    assert sum(b <= 1 for b in steady) >= 0.9 * len(steady)
     counters = [struct.unpack_from("<Q", d.payload)[0] for d in recorder.deliveries]
     assert counters == sorted(set(counters))  # never an older frame after a newer one
 

@@ -108,7 +108,7 @@ class LeaderNode:
         self._leader = Leader(config, rng, max(0, int(clock() * 1e6)) if epoch is None else epoch)
         self.config = self._leader.config
         self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
-        self._active = False  # this process polls (see ``_take_role``)
+        self._active: bool | None = None  # this process polls (None: not decided yet)
         self._clock = clock
         self._on_delivery = on_delivery
         self._on_join = on_join
@@ -142,9 +142,6 @@ class LeaderNode:
         self._handover.own_epoch = self._leader.epoch
         self._election = Election(session, self.keys, self.name, self._leader.epoch,
                                   lambda: self._inbox.put(None))
-        if not self._election.leading:
-            log.warning("leader %s stands by: %s is active", self.name,
-                        self._election.active[1])
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
         self._thread.start()
 
@@ -167,7 +164,7 @@ class LeaderNode:
     @property
     def active(self) -> bool:
         """This process is the swarm's active leader (the others stand by)."""
-        return self._active
+        return bool(self._active)
 
     @property
     def fast_polls(self) -> int:
@@ -255,7 +252,8 @@ class LeaderNode:
         control the leader before left), or stand by."""
         self._active = self._election.leading
         if not self._active:
-            log.warning("leader %s stands by (an older leader is active)", self.name)
+            log.warning("leader %s stands by (an older leader is active: %s)", self.name,
+                        self._election.active[1])
             return
         self._raise_epoch(take_state=True)
         log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
