@@ -68,12 +68,12 @@ def test_the_oldest_leader_polls_and_a_standby_takes_over_with_its_state(
         assert young.active and young.epoch > OLD  # above the epoch it took over from
         stats.wait("stats of the young leader", lambda s: any(
             r["leader"] == "young" and r["epoch"] == young.epoch for r in s.stats(stats_key())))
-        with obeyed.cond:
-            before = len(obeyed.entries)
         young.set_control("f1", [(6.0, 6.0, 6.0, 6.0)])
         obeyed.wait_for([(6.0, 6.0, 6.0, 6.0)])
-        with obeyed.cond:
-            assert [(1.0, 2.0, 3.0, 4.0)] not in obeyed.entries[before:-1]  # nothing older
+        with obeyed.cond:  # the young leader's control, sent again, is all f1 obeys now
+            since = obeyed.entries.index([(6.0, 6.0, 6.0, 6.0)])
+            assert obeyed.cond.wait_for(lambda: len(obeyed.entries) >= since + 4, WAIT)
+            assert all(e == [(6.0, 6.0, 6.0, 6.0)] for e in obeyed.entries[since:])
         weights = {str(r["follower"]): float(r["weight"]) for r in young.latest}
         assert weights["f2"] > 2.5  # 0.8 * 1 + 0.2 * 9, as the old leader had it
     finally:
