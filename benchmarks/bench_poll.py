@@ -24,6 +24,7 @@ follower in (b) next to the round-robin floor S (N/2 + 1).
     .venv/bin/python benchmarks/bench_poll.py -n 4 --seconds 2 --control-period 0
     .venv/bin/python benchmarks/bench_poll.py --layout processes  # a process per follower
     .venv/bin/python benchmarks/bench_poll.py --secure   # mutual TLS + access control
+    .venv/bin/python benchmarks/bench_poll.py --watch    # (c) with a delivery-stream reader
 
 ``--secure`` measures what closing the swarm costs: the ``LeaderNode`` of a swarm made by
 ``wiswarm security init`` (TLS-only router with access control, every node a client
@@ -37,6 +38,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import json
 import math
 import multiprocessing
 import os
@@ -152,6 +154,24 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
     return polls / elapsed
 
 
+def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds: float,
+                  config: LeaderConfig, control_period: float) -> tuple[float, float]:
+    """(c): polls/s of the LeaderNode while another session subscribes to its delivery
+    stream (``leader/deliveries``), and the records per second that session got."""
+    records = [0]
+
+    def count(sample: zenoh.Sample) -> None:
+        records[0] += len(json.loads(sample.payload.to_bytes()))
+
+    with watcher.open() as watching:
+        subscriber = watching.declare_subscriber(f"wiswarm/{SWARM}/leader/deliveries", count)
+        start = time.perf_counter()
+        rate, _, _ = leader_round(session, n, seconds, config, control_period)
+        got = records[0] / (time.perf_counter() - start)
+        subscriber.undeclare()
+    return rate, got
+
+
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
                  control_period: float) -> tuple[float, list[dict[str, Any]], float]:
     """(b): polls/s of the LeaderNode, its per-follower stats at the end, and the share
@@ -220,18 +240,23 @@ def measure(n: int, args: argparse.Namespace) -> None:
         with node_spec.open() as session:
             wait_for_routes(session, followers, args.timeout)
             bare_round(session, followers, 0.5, args.timeout)  # warm up
-            bare, leader, stats, fast_shares = [], [], [], []
-            for i in range(args.rounds):  # in pairs, alternately (b) first: drift cancels
-                if i % 2:
-                    rate, stats, fast = leader_round(session, n, args.seconds, config,
-                                                     args.control_period)
-                bare.append(bare_round(session, followers, args.seconds, args.timeout))
-                if not i % 2:
-                    rate, stats, fast = leader_round(session, n, args.seconds, config,
-                                                     args.control_period)
-                leader.append(rate)
-                fast_shares.append(fast)
+            bare, leader, watched, stats, fast_shares = [], [], [], [], []
+            kinds = ("bare", "leader", "watched") if args.watch else ("bare", "leader")
+            for i in range(args.rounds):  # in turn, the order reversed every other time
+                for kind in kinds if i % 2 == 0 else kinds[::-1]:  # so that drift cancels
+                    if kind == "bare":
+                        bare.append(bare_round(session, followers, args.seconds, args.timeout))
+                    elif kind == "leader":
+                        rate, stats, fast = leader_round(session, n, args.seconds, config,
+                                                         args.control_period)
+                        leader.append(rate)
+                        fast_shares.append(fast)
+                    else:
+                        watched.append(watched_round(session, node_spec, n, args.seconds,
+                                                     config, args.control_period))
         report(n, args, bare, leader, stats, statistics.median(fast_shares))
+        if watched:
+            report_watched(leader, watched)
 
 
 SWARMS = ("secured", "secured, no log", "open clients", "open peers")
@@ -337,6 +362,16 @@ def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[flo
               f"   p95 {float(record['p95_aoi_s']) * 1e3:7.2f} ms   polls {record['polls']}")
 
 
+def report_watched(leader: list[float], watched: list[tuple[float, float]]) -> None:
+    paired = sorted(w / x for x, (w, _) in zip(leader, watched, strict=True))
+    low, median, high = statistics.quantiles(paired, n=4) if len(paired) > 1 else paired * 3
+    records = statistics.median(got for _, got in watched)
+    print(f"  (c) leader watched  {statistics.median(w for w, _ in watched):8.0f} polls/s   "
+          f"a subscriber to leader/deliveries got {records:.0f} records/s")
+    print(f"  ratio (c)/(b)       {median:8.3f}   target >= 0.98   (median of the "
+          f"{len(paired)} pairs of rounds, quartiles {low:.3f} .. {high:.3f})")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("-n", "--followers", type=int, nargs="+", default=[4, 14])
@@ -353,6 +388,8 @@ def main() -> None:
     parser.add_argument("--timeout", type=float, default=0.3)
     parser.add_argument("--control-period", type=float, default=0.1,
                         help="seconds between repeats of unchanged control (0: every poll)")
+    parser.add_argument("--watch", action="store_true",
+                        help="(c): also the leader with a subscriber to its delivery stream")
     parser.add_argument("--secure", action="store_true",
                         help="a secured swarm's leader against open swarms' (see above)")
     args = parser.parse_args()

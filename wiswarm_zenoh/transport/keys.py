@@ -68,6 +68,10 @@ class SwarmKeys:
         return f"{self.prefix}/leader/stats"
 
     @property
+    def leader_deliveries(self) -> str:
+        return f"{self.prefix}/leader/deliveries"
+
+    @property
     def all_stats(self) -> str:
         return f"{self.prefix}/*/stats"
 

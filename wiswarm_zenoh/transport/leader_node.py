@@ -36,21 +36,19 @@ from wiswarm_zenoh.core import (
     Rejected,
     Silent,
     Stale,
+    TimedOut,
     drain,
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.delivery_stream import DeliveryStream
 from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.standby import Handover
-from wiswarm_zenoh.transport.telemetry import (
-    LeaderSummary,
-    follower_stats,
-    fresh_attachment,
-    to_json,
-)
+from wiswarm_zenoh.transport.stats_rounds import Record, StatsRounds
+from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -113,7 +111,6 @@ class LeaderNode:
         self._on_delivery = on_delivery
         self._on_join = on_join
         self._on_leave = on_leave
-        self._stats_period = stats_period
         self._control_period = control_period
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._lock = threading.Lock()  # the core, between the poll thread and callers
@@ -125,17 +122,10 @@ class LeaderNode:
         self.bad_input = BadInputLog(log)
         self._control_version = 0
         self._control_sent: tuple[int, float] = (-1, 0.0)  # (version, time) of the last put
-        self._started = clock()
-        self._stats_mark = (self._started, 0)  # (time, polls) at the last stats
-        self._next_stats = self._started
-        self._stats_round: deque[str] = deque()  # followers this round's stats still owe
-        self._round_start, self._round_size = self._started, 0
-        self._records: list[dict[str, float | int | str]] = []  # this round's so far
-        self.latest: list[dict[str, float | int | str]] = []
-        self.summary = LeaderSummary([], 0.0, 0.0, self.config.policy, 0.0)
+        self._stats = StatsRounds(session, self.keys, stats_period, clock(),
+                                  self.config.policy, self.name)
+        self._deliveries = DeliveryStream(session, self.keys)
         self._control = session.declare_publisher(self.keys.control, express=True)
-        self._leader_stats = session.declare_publisher(self.keys.leader_stats,
-                                                       encoding=zenoh.Encoding.APPLICATION_JSON)
         self._members = session.liveliness().declare_subscriber(self.keys.members,
                                                                 self._on_member, history=True)
         self._handover = Handover(session, self.keys)
@@ -167,6 +157,16 @@ class LeaderNode:
         return bool(self._active)
 
     @property
+    def latest(self) -> list[Record]:
+        """The last whole round of followers' stats records (as published)."""
+        return self._stats.latest
+
+    @property
+    def summary(self) -> LeaderSummary:
+        """The last ``leader/stats`` published."""
+        return self._stats.summary
+
+    @property
     def fast_polls(self) -> int:
         """Polls sent the moment the reply before them came (see the module's docstring)."""
         return self._leader.fast_polls
@@ -192,7 +192,9 @@ class LeaderNode:
         for link in self._links.values():
             link.close()
         self._links.clear()
-        undeclare(self._control, self._leader_stats)
+        self._deliveries.close()
+        self._stats.close()
+        undeclare(self._control)
 
     def __enter__(self) -> LeaderNode:
         return self
@@ -227,11 +229,14 @@ class LeaderNode:
                 else:
                     self._hand_on()
                 now = self._clock()
-                if now >= self._next_stats:  # while the poll just sent is on its way
+                if now >= self._stats.due:  # while the poll just sent is on its way
                     self._publish_stats(now)
+                if now >= self._deliveries.due:
+                    self._deliveries.flush()
                 with self._lock:
                     timer = self._leader.get_timer()
-                wake_at = self._next_stats if timer is None else min(timer, self._next_stats)
+                wake_at = min(self._stats.due, self._deliveries.due)
+                wake_at = wake_at if timer is None else min(timer, wake_at)
                 try:
                     arrival = self._inbox.get(timeout=max(0.0, wake_at - now))
                 except queue.Empty:
@@ -315,8 +320,12 @@ class LeaderNode:
                 link = self._links.get(event.follower)
                 if link is not None and link.listening:
                     link.fresh.put(event.payload, attachment=fresh_attachment(event))
+                self._deliveries.add(event, event.delivered_at)
                 if self._on_delivery is not None:
                     _notify(self._on_delivery, event)
+            elif isinstance(event, TimedOut):
+                self._deliveries.add(event, self._clock())
+                log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(self.keys.update(event.follower), event.reason)
             elif isinstance(event, Silent):
@@ -325,8 +334,6 @@ class LeaderNode:
             elif isinstance(event, Answering):
                 log.warning("follower %s answers again, after %.1f s", event.follower,
                             event.silent_for)
-            else:
-                log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
 
     def _apply_changes(self) -> None:
         while self._changes:
@@ -357,41 +364,13 @@ class LeaderNode:
                 _notify(self._on_leave, follower)
 
     def _publish_stats(self, now: float) -> None:
-        """The stats of the followers due by ``now``: each follower's once a
-        ``stats_period``, spread evenly over it (a record or two per poll for a thousand
-        followers, not all of them at once while polling waits); the summary on
-        ``leader/stats`` once a round is done."""
+        """The stats due by ``now``, from the active leader only; at each new round, an
+        active leader that hears an epoch as high as its own (two active across a
+        partition) rises above it first."""
         if not self._active:
-            self._next_stats = now + self._stats_period
-            self._stats_round.clear()
-            return  # the active leader's stats are the swarm's
-        if not self._stats_round:  # a new round
-            if self._handover.epoch >= self._leader.epoch:  # two active (a partition): rise
-                self._raise_epoch(take_state=False)
-            with self._lock:
-                self._stats_round = deque(self._leader.followers)
-            self._round_start, self._round_size, self._records = now, len(self._stats_round), []
-        start, size = self._round_start, self._round_size
-        due = min(size, int(size * (now - start) / self._stats_period) + 1)
-        batch = []
-        with self._lock:
-            while self._stats_round and size - len(self._stats_round) < due:
-                follower = self._stats_round.popleft()
-                if follower in self._links:  # not gone since the round began
-                    batch.append(follower_stats(self._leader.stats(follower, now),
-                                                self._transport_errors[follower]))
-            polls = self._leader.polls
-        for record in batch:
-            self._links[str(record["follower"])].stats.put(to_json(record))
-        self._records += batch
-        if self._stats_round:
-            self._next_stats = start + self._stats_period * (size - len(self._stats_round)) / size
+            self._stats.pause(now)
             return
-        self._next_stats = start + self._stats_period
-        mark_time, mark_polls = self._stats_mark
-        rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
-        summary = LeaderSummary.of(self._records, rate, self.config.policy,
-                                   now - self._started, self.name, self._leader.epoch)
-        self._leader_stats.put(to_json(summary.as_dict()))
-        self.latest, self.summary = self._records, summary
-        self._stats_mark = (now, polls)
+        if self._stats.between_rounds and self._handover.epoch >= self._leader.epoch:
+            self._raise_epoch(take_state=False)
+        self._stats.publish(now, self._leader, self._lock, self._links,
+                            self._transport_errors)

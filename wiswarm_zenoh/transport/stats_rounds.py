@@ -1,0 +1,83 @@
+"""The active leader's stats on Zenoh: each follower's record once a period, spread
+evenly over it (a record or two per poll for a thousand followers, not all of them at
+once while polling waits), and the summary on ``leader/stats`` once a round is done."""
+
+from __future__ import annotations
+
+import threading
+from collections import Counter, deque
+from collections.abc import Mapping
+
+import zenoh
+
+from wiswarm_zenoh.core import Leader
+from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.telemetry import LeaderSummary, follower_stats, to_json
+
+Record = dict[str, float | int | str]
+
+
+class StatsRounds:
+    """Rounds of stats; ``due`` says when the next records are owed."""
+
+    def __init__(self, session: zenoh.Session, keys: SwarmKeys, period: float,
+                 started: float, policy: str, name: str) -> None:
+        self._period = period
+        self._started = started
+        self._policy = policy
+        self._name = name
+        self._publisher = session.declare_publisher(keys.leader_stats,
+                                                    encoding=zenoh.Encoding.APPLICATION_JSON)
+        self.due = started
+        self._mark = (started, 0)  # (time, polls) at the last summary
+        self._owed: deque[str] = deque()  # followers this round's stats still owe
+        self._round_start, self._round_size = started, 0
+        self._records: list[Record] = []  # this round's so far
+        self.latest: list[Record] = []  # the last whole round's records
+        self.summary = LeaderSummary([], 0.0, 0.0, policy, 0.0)
+
+    @property
+    def between_rounds(self) -> bool:
+        return not self._owed
+
+    def pause(self, now: float) -> None:
+        """A standby publishes nothing (the active leader's stats are the swarm's)."""
+        self.due = now + self._period
+        self._owed.clear()
+
+    def publish(self, now: float, leader: Leader, lock: threading.Lock,
+                links: Mapping[str, FollowerLink], transport_errors: Counter[str]) -> None:
+        """Publish the records due by ``now`` (and the summary if the round is done)."""
+        if not self._owed:
+            with lock:
+                self._owed = deque(leader.followers)
+            self._round_start, self._round_size, self._records = now, len(self._owed), []
+        start, size = self._round_start, self._round_size
+        owed_now = min(size, int(size * (now - start) / self._period) + 1)
+        batch = []
+        with lock:
+            while self._owed and size - len(self._owed) < owed_now:
+                follower = self._owed.popleft()
+                if follower in links:  # not gone since the round began
+                    batch.append(follower_stats(leader.stats(follower, now),
+                                                transport_errors[follower]))
+            polls, epoch = leader.polls, leader.epoch
+        for record in batch:
+            links[str(record["follower"])].stats.put(to_json(record))
+        self._records += batch
+        if self._owed:
+            self.due = start + self._period * (size - len(self._owed)) / size
+            return
+        self.due = start + self._period
+        mark_time, mark_polls = self._mark
+        rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
+        summary = LeaderSummary.of(self._records, rate, self._policy, now - self._started,
+                                   self._name, epoch)
+        self._publisher.put(to_json(summary.as_dict()))
+        self.latest, self.summary = self._records, summary
+        self._mark = (now, polls)
+
+    def close(self) -> None:
+        undeclare(self._publisher)
