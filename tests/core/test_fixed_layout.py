@@ -20,10 +20,10 @@ from wiswarm_zenoh.core.wire import (
     FragmentData,
     Poll,
     Reply,
-    _decode_poll_any,
-    _decode_reply_any,
     decode_poll,
+    decode_poll_strict,
     decode_reply,
+    decode_reply_strict,
     encode_poll,
     encode_reply,
 )
@@ -78,8 +78,8 @@ def _mutated(data: bytes, where: int, how: int, value: int) -> bytes:
 # Each message with its strategy, encoder, fast reader and strict reader.
 Codec = tuple[st.SearchStrategy[Any], Callable[[Any], bytes], Decoder, Decoder]
 CODECS: dict[str, Codec] = {
-    "poll": (polls, encode_poll, unpack_poll, _decode_poll_any),
-    "reply": (replies, encode_reply, unpack_reply, _decode_reply_any),
+    "poll": (polls, encode_poll, unpack_poll, decode_poll_strict),
+    "reply": (replies, encode_reply, unpack_reply, decode_reply_strict),
 }
 
 

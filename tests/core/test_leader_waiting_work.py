@@ -24,7 +24,7 @@ from wiswarm_zenoh.core import (
     TimedOut,
     drain,
 )
-from wiswarm_zenoh.core.peers import FEW
+from wiswarm_zenoh.core.peers import PLAIN_LOOPS_MAX
 from wiswarm_zenoh.core.wire import FragmentData, Reply, decode_reply, encode_reply
 
 from .drive import on_reply, poll, poll_message
@@ -110,7 +110,7 @@ def test_the_fast_path_picks_what_the_usual_path_picks(
 
 
 def test_the_fast_path_picks_what_the_usual_path_picks_among_many() -> None:
-    n = FEW + 6  # numpy's side of prepare
+    n = PLAIN_LOOPS_MAX + 6  # numpy's side of prepare
     rng = random.Random(3)
     weights = [rng.uniform(0.1, 10.0) for _ in range(n)]
     offers = [(rng.randrange(n), rng.uniform(0.0, 0.002)) for _ in range(300)]

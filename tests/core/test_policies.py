@@ -144,4 +144,4 @@ def test_the_plain_float_path_picks_what_the_numpy_path_picks(
         name: str, rows: list[tuple[float, float, float]]) -> None:
     policy = Whittle(power_cost(2.0)) if name == "power-2" else make_policy(name)
     w, p, h = (list(column) for column in zip(*rows, strict=True))
-    assert policy.choose_few(w, p, h) == policy.choose(_a(*w), _a(*p), _a(*h))
+    assert policy.choose_in_lists(w, p, h) == policy.choose(_a(*w), _a(*p), _a(*h))

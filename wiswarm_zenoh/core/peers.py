@@ -130,7 +130,8 @@ class Peer:
         )
 
 
-FEW = 64  # followers up to which plain loops beat numpy (its cost per call is fixed)
+PLAIN_LOOPS_MAX = 64  # followers up to which plain loops beat numpy (its cost per call
+# is fixed)
 
 
 class PeerTable:
@@ -160,8 +161,9 @@ class PeerTable:
         return len(self.ids)
 
     @property
-    def few(self) -> bool:
-        return len(self.ids) <= FEW
+    def plain_loops(self) -> bool:
+        """Few enough followers that plain loops over the columns beat numpy."""
+        return len(self.ids) <= PLAIN_LOOPS_MAX
 
     def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray]:
         """numpy views of w, p and tau (no copy: drop them before the next add or remove)."""
@@ -202,7 +204,7 @@ class PeerTable:
 
     def first_probe(self) -> int:
         """The silent follower due for a probe first (the smallest probe_at)."""
-        if self.few:
+        if self.plain_loops:
             return min(range(len(self.ids)), key=self.probe_at.__getitem__)
         return int(np.frombuffer(self.probe_at).argmin())
 
@@ -210,7 +212,7 @@ class PeerTable:
         """The followers that answer (p > 0), by index; for many, a numpy array that
         indexes the columns as it is (a list of a thousand ints, made and read back
         on every poll while anyone is silent, would cost more than the policy)."""
-        if self.few:
+        if self.plain_loops:
             return [i for i, p in enumerate(self.p) if p > 0.0]
         return np.flatnonzero(np.frombuffer(self.p) > 0.0)
 

@@ -1,8 +1,8 @@
 """Scheduling policies: who to poll next, given weights w, reliabilities p and ages h.
 
 Every policy decides in two equivalent ways: ``choose`` on numpy arrays in one
-vectorised pass (many followers), and ``choose_few`` on plain float sequences (a swarm
-of a few dozen: there numpy's fixed cost per call dominates, and more so when the
+vectorised pass (many followers), and ``choose_in_lists`` on plain float sequences (a
+swarm of a few dozen: there numpy's fixed cost per call dominates, more so when the
 leader wakes up cold for every poll). Both break ties deterministically (lowest index,
 i.e. the follower that joined first), except ``random``, whose randomness comes from
 the injected generator.
@@ -32,7 +32,7 @@ class Policy(Protocol):
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int: ...
 
-    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int: ...
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int: ...
 
 
 class IndexPolicy(ABC):
@@ -54,7 +54,7 @@ class IndexPolicy(ABC):
         """The index of each follower, on plain floats."""
         return list(map(self.index, w, p, h))
 
-    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int:
         values = self.indices(w, p, h)
         return values.index(max(values))  # the first of equals, as np.argmax
 
@@ -104,7 +104,8 @@ class Whittle(IndexPolicy):
 
 
 class WhittleExact(IndexPolicy):
-    """Kadota et al.'s exact index for the slotted model: ``w p h (h + 2/p - 1) / 2``.
+    """Kadota et al.'s exact index for the slotted model, ``w p h (h + 2/p - 1) / 2``,
+    computed without the ``/ 2``: a common factor changes no choice.
 
     Ages ``h`` are in slots (the leader passes age divided by its mean poll time).
     """
@@ -142,9 +143,9 @@ class RoundRobin:
         self._last = -1
 
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
-        return self.choose_few(w, p, h)  # type: ignore[arg-type]
+        return self.choose_in_lists(w, p, h)  # type: ignore[arg-type]
 
-    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int:
         self._last = (self._last + 1) % len(h)
         return self._last
 
@@ -160,7 +161,7 @@ class RandomChoice:
     def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
         return self._rng.randrange(len(h))
 
-    def choose_few(self, w: Floats, p: Floats, h: Floats) -> int:
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int:
         return self._rng.randrange(len(h))
 
 

@@ -29,13 +29,13 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
          live: list[int] | IntArray | None) -> int:
     """The policy's pick among all followers, or among those in ``live`` (an index into
     it), by ages in slots; plain floats for a few followers, numpy for many."""
-    if table.few:
+    if table.plain_loops:
         w: Sequence[float] = table.w
         p: Sequence[float] = table.p
         tau: Sequence[float] = table.tau
         if live is not None:
             w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
-        return policy.choose_few(w, p, ages_in_slots(tau, now, slot))
+        return policy.choose_in_lists(w, p, ages_in_slots(tau, now, slot))
     wa, pa, taua = table.arrays()
     if live is not None:
         wa, pa, taua = wa[live], pa[live], taua[live]
@@ -51,7 +51,7 @@ def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, pol
     silent one (whose probes ``choose`` times)."""
     if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
         return None
-    if table.few:
+    if table.plain_loops:
         values = policy.indices(table.w, table.p, ages_in_slots(table.tau, at, slot))
         values[polled] = -math.inf
         best = max(values)

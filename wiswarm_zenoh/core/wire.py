@@ -111,10 +111,10 @@ def _check(fault: str | None) -> None:
 def decode_poll(data: bytes) -> Poll:
     """A poll in the fixed layout the leader sends, or else in any valid encoding."""
     poll = unpack_poll(data) if type(data) is bytes else None
-    return _decode_poll_any(data) if poll is None else poll
+    return decode_poll_strict(data) if poll is None else poll
 
 
-def _decode_poll_any(data: bytes) -> Poll:
+def decode_poll_strict(data: bytes) -> Poll:
     obj = _unpack(data, "poll")
     ack_raw = obj.get("ack")
     ack: tuple[int, int] | None = None
@@ -141,7 +141,7 @@ def decode_reply(data: bytes, follower: str | None = None) -> Reply:
     """A reply in the fixed layout followers send, or else in any valid encoding.
     ``follower``, whom the reply answers, spares parsing that id (see ``unpack_reply``)."""
     reply = unpack_reply(data, follower) if type(data) is bytes else None
-    return _decode_reply_any(data) if reply is None else reply
+    return decode_reply_strict(data) if reply is None else reply
 
 
 def _decode_fragment(body: object) -> FragmentData:
@@ -156,7 +156,7 @@ def _decode_fragment(body: object) -> FragmentData:
                         _uint(body, "size", within=at), _uint(body, "crc", UINT32, at), data)
 
 
-def _decode_reply_any(data: bytes) -> Reply:
+def decode_reply_strict(data: bytes) -> Reply:
     obj = _unpack(data, "reply")
     sender = obj.get("from")
     if not id_fits(sender):
