@@ -195,7 +195,7 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
         polls, fast = node.polls - polls0, node.fast_polls - fast0
         rate = polls / (time.perf_counter() - start)
         time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
-        stats = list(node.latest)
+        stats = [record.as_dict() for record in node.latest]
     return rate, stats, fast / max(polls, 1)
 
 

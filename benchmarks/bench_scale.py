@@ -257,7 +257,7 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
 
 
 def timeouts(node: LeaderNode) -> int:
-    return sum(int(record["timeouts"]) for record in node.latest)
+    return sum(record.timeouts for record in node.latest)
 
 
 def bare_rate(spec: SessionSpec, followers: list[str], seconds: float,

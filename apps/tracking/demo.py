@@ -153,7 +153,7 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
         config = LeaderConfig(policy=options.policy)
         with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered) as node:
             yield _Leader(
-                node, lambda: {str(r["follower"]): float(r["weight"]) for r in node.latest},
+                node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,
             )
     else:

@@ -230,14 +230,14 @@ def test_sequence_spans_and_sender_restarts_give_p_hat() -> None:
     assert not tally.take(0.005, 1, 10, 0.06)  # a duplicate, older than the freshest
     for seq in (1, 2):  # the sender started again: its sequence restarts, fresher frames
         assert tally.take(1.0 + seq * 0.01, seq, 10, 1.0 + seq * 0.01)
-    record = tally.record("a", 0, 1.1)
-    assert (tally.attempts, record["received"], record["stale"]) == (7, 7, 1)
-    assert record["p_hat"] == 1.0 and record["deliveries"] == 6
+    stats = tally.stats("a", 0, 1.1)
+    assert (tally.attempts, tally.extras(1.1)["received"], stats.stale) == (7, 7, 1)
+    assert stats.p_hat == 1.0 and stats.deliveries == 6
     fresh = FollowerTally(AoITracker(0.0))
     for seq in (10, 14):
         fresh.take(seq * 0.01, seq, 10, seq * 0.01)
-    assert fresh.record("a", 0, 1.0)["p_hat"] == pytest.approx(2 / 5)
-    assert fresh.record("a", 0, 1.0)["lost"] == 3
+    assert fresh.stats("a", 0, 1.0).p_hat == pytest.approx(2 / 5)
+    assert fresh.extras(1.0)["lost"] == 3
 
 
 def test_malformed_datagrams_are_counted_and_logged_and_never_lower_aoi(

@@ -44,7 +44,7 @@ def _mean_aoi(specs: Callable[[str], SessionSpec]) -> float:
         time.sleep(RUN)  # the measurement itself, not a synchronisation
         summary = leader.summary
         assert sorted(summary.followers) == list(FOLLOWERS)
-        assert all(int(r["deliveries"]) > 0 for r in leader.latest)
+        assert all(r.deliveries > 0 for r in leader.latest)
         return summary.mean_aoi_s
 
 

@@ -74,7 +74,7 @@ def test_the_oldest_leader_polls_and_a_standby_takes_over_with_its_state(
             since = obeyed.entries.index([(6.0, 6.0, 6.0, 6.0)])
             assert obeyed.cond.wait_for(lambda: len(obeyed.entries) >= since + 4, WAIT)
             assert all(e == [(6.0, 6.0, 6.0, 6.0)] for e in obeyed.entries[since:])
-        weights = {str(r["follower"]): float(r["weight"]) for r in young.latest}
+        weights = {r.follower: r.weight for r in young.latest}
         assert weights["f2"] > 2.5  # 0.8 * 1 + 0.2 * 9, as the old leader had it
     finally:
         young.close()

@@ -201,8 +201,9 @@ class Receiver:
         with self._stats_lock:
             now = self._clock()
             with self._lock:
-                records = [tally.record(name, self._errors[name], now)
+                figures = [(tally.stats(name, self._errors[name], now), tally.extras(now))
                            for name, tally in sorted(self._tallies.items())]
+            records = [{**stats.as_dict(), **extras} for stats, extras in figures]
             for record in records:
                 name = str(record["follower"])
                 if name not in self._publishers:
@@ -211,7 +212,8 @@ class Receiver:
                 self._publishers[name].put(to_json(record))
             for gone in set(self._publishers) - {str(r["follower"]) for r in records}:
                 undeclare(self._publishers.pop(gone))
-            summary = LeaderSummary.of(records, 0.0, self.label, now - self._started)
+            summary = LeaderSummary.of([stats for stats, _ in figures], 0.0, self.label,
+                                       now - self._started)
             self._leader_stats.put(to_json(summary.as_dict()))
             self.latest, self.summary = records, summary
 

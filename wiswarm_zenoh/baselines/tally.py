@@ -49,19 +49,21 @@ class FollowerTally:
         run = 0 if self.first_seq is None else self.last_seq - self.first_seq + 1
         return self.earlier_runs + run
 
-    def record(self, follower: str, errors: int, now: float) -> dict[str, float | int | str]:
-        """The polling leader's stats fields (``follower_stats``), then this system's own:
-        deliveries/s and throughput since the start, frames received and lost."""
+    def stats(self, follower: str, errors: int, now: float) -> FollowerStats:
+        """The polling leader's stats fields, as this system gives them."""
         aoi, attempts = self.aoi, self.attempts
-        record = FollowerStats(
+        return FollowerStats(
             follower=follower, aoi_s=aoi.age(now), mean_aoi_s=aoi.mean(now),
             p95_aoi_s=aoi.percentile(0.95, now), peak_aoi_s=aoi.peak(now),
             p_hat=min(1.0, self.received / attempts) if attempts else NO_FRAME_P_HAT,
             weight=1.0, polls=0, deliveries=aoi.deliveries, timeouts=0, errors=errors,
             stale=self.received - aoi.deliveries, clock_offset_s=0.0,
-        ).as_dict()
-        span = max(now - aoi.start, 1e-9)
-        record.update(deliveries_per_s=aoi.deliveries / span,
-                      throughput_mbps=self.bytes * 8 / span / 1e6,
-                      received=self.received, lost=max(0, attempts - self.received))
-        return record
+        )
+
+    def extras(self, now: float) -> dict[str, float | int]:
+        """This system's own figures: deliveries/s and throughput since the start, frames
+        received and lost (published next to ``stats``)."""
+        span = max(now - self.aoi.start, 1e-9)
+        return {"deliveries_per_s": self.aoi.deliveries / span,
+                "throughput_mbps": self.bytes * 8 / span / 1e6,
+                "received": self.received, "lost": max(0, self.attempts - self.received)}

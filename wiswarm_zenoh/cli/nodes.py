@@ -182,13 +182,14 @@ def _leader(args: argparse.Namespace) -> int:
     def show(node: LeaderNode) -> None:
         summary = node.summary
         for record in node.latest:
-            rates.observe(str(record["follower"]), float(record["polls"]), summary.uptime_s)
+            rates.observe(record.follower, record.polls, summary.uptime_s)
         header = f"{title}, {summary.polls_per_s:.0f} polls/s, up {summary.uptime_s:.0f} s"
-        table.show(format_table(node.latest, rates.rates, header))
+        table.show(format_table([r.as_dict() for r in node.latest], rates.rates, header))
 
     node = run_leader(spec, options, threading.Event(),
                       _Announce(f"{title}: waiting for followers (Ctrl-C to stop)"), show)
-    print("\n".join(["", "summary", *format_table(node.latest, rates.rates, title)]))
+    records = [r.as_dict() for r in node.latest]
+    print("\n".join(["", "summary", *format_table(records, rates.rates, title)]))
     return 0
 
 

@@ -31,6 +31,7 @@ import zenoh
 from wiswarm_zenoh.core import (
     Answering,
     Delivered,
+    FollowerStats,
     Leader,
     LeaderConfig,
     Rejected,
@@ -47,7 +48,7 @@ from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.standby import Handover
-from wiswarm_zenoh.transport.stats_rounds import Record, StatsRounds
+from wiswarm_zenoh.transport.stats_rounds import StatsRounds
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
 
 log = logging.getLogger(__name__)
@@ -157,7 +158,7 @@ class LeaderNode:
         return bool(self._active)
 
     @property
-    def latest(self) -> list[Record]:
+    def latest(self) -> list[FollowerStats]:
         """The last whole round of followers' stats records (as published)."""
         return self._stats.latest
 

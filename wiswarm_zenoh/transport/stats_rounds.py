@@ -10,13 +10,11 @@ from collections.abc import Mapping
 
 import zenoh
 
-from wiswarm_zenoh.core import Leader
+from wiswarm_zenoh.core import FollowerStats, Leader
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, follower_stats, to_json
-
-Record = dict[str, float | int | str]
 
 
 class StatsRounds:
@@ -34,8 +32,8 @@ class StatsRounds:
         self._mark = (started, 0)  # (time, polls) at the last summary
         self._owed: deque[str] = deque()  # followers this round's stats still owe
         self._round_start, self._round_size = started, 0
-        self._records: list[Record] = []  # this round's so far
-        self.latest: list[Record] = []  # the last whole round's records
+        self._records: list[FollowerStats] = []  # this round's so far
+        self.latest: list[FollowerStats] = []  # the last whole round's
         self.summary = LeaderSummary([], 0.0, 0.0, policy, 0.0)
 
     @property
@@ -65,7 +63,7 @@ class StatsRounds:
                                                 transport_errors[follower]))
             polls, epoch = leader.polls, leader.epoch
         for record in batch:
-            links[str(record["follower"])].stats.put(to_json(record))
+            links[record.follower].stats.put(to_json(record.as_dict()))
         self._records += batch
         if self._owed:
             self.due = start + self._period * (size - len(self._owed)) / size

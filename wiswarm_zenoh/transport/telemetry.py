@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -9,12 +10,10 @@ from dataclasses import dataclass
 from wiswarm_zenoh.core import Delivered, FollowerStats
 
 
-def follower_stats(stats: FollowerStats, transport_errors: int) -> dict[str, float | int | str]:
+def follower_stats(stats: FollowerStats, transport_errors: int) -> FollowerStats:
     """One follower's stats; ``errors`` adds the replies the transport already refused
     (error replies, oversized payloads) to those the core rejected."""
-    record = stats.as_dict()
-    record["errors"] = stats.errors + transport_errors
-    return record
+    return dataclasses.replace(stats, errors=stats.errors + transport_errors)
 
 
 @dataclass(frozen=True)
@@ -30,11 +29,11 @@ class LeaderSummary:
     epoch: int = 0  # its epoch: it grows at every takeover
 
     @classmethod
-    def of(cls, records: Sequence[dict[str, float | int | str]], polls_per_s: float,
+    def of(cls, records: Sequence[FollowerStats], polls_per_s: float,
            policy: str, uptime_s: float, leader: str = "", epoch: int = 0) -> LeaderSummary:
-        means = [float(r["mean_aoi_s"]) for r in records]
+        means = [r.mean_aoi_s for r in records]
         return cls(
-            followers=[str(r["follower"]) for r in records], polls_per_s=polls_per_s,
+            followers=[r.follower for r in records], polls_per_s=polls_per_s,
             mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
             uptime_s=uptime_s, leader=leader, epoch=epoch,
         )
