@@ -18,7 +18,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-from wiswarm_zenoh.cli.sim import ProgressBar
+from wiswarm_zenoh.options import ProgressBar
 from wiswarm_zenoh.sim.report import gains_table
 from wiswarm_zenoh.testbed import ChannelSpec, TestbedUnavailable, check_available
 from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study

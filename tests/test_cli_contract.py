@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli
-from wiswarm_zenoh.cli.arguments import ArgType
+from wiswarm_zenoh.options import ArgType
 
 BAD = ("nan", "inf", "-inf", "", "x" * 300, "/nonexistent/dir/file", "tcp/999.1.1.1:1",
        "-1", "0")
@@ -68,7 +68,7 @@ STARTERS = (
     "wiswarm_zenoh.cli.nodes.run_baseline_followers", "wiswarm_zenoh.cli.nodes.run_demo",
     "wiswarm_zenoh.cli.sim.run_slotted", "wiswarm_zenoh.cli.sim.run_wifi",
     "wiswarm_zenoh.cli.sim.run_link", "wiswarm_zenoh.cli.sim.run_sweep",
-    "wiswarm_zenoh.cli.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",
+    "wiswarm_zenoh.options.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",
     "wiswarm_zenoh.cli.security.init", "wiswarm_zenoh.cli.security.add_follower",
     "apps.tracking.demo.run",
 )
@@ -163,7 +163,7 @@ def test_every_bad_value_is_one_line_and_exit_2(
     action = next(a for a in actions if a.dest == dest)
     kind = _kind(action)
     assert kind is not None, (f"{' '.join(path)} {_name(action)}: give it a type of "
-                              "wiswarm_zenoh.cli.arguments, or choices")
+                              "wiswarm_zenoh.options, or choices")
     if kind == "switch":
         return  # takes no value
     (tmp_path / "file").write_text("")

@@ -20,8 +20,7 @@ import zenoh
 from apps.tracking.leader_app import VisionStats
 from apps.tracking.reception import AoISummary
 from apps.tracking.uav_app import TRACKING_LEAF
-from wiswarm_zenoh.transport import SwarmKeys
-from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
 
 log = logging.getLogger(__name__)
 

@@ -18,18 +18,18 @@ from apps.tracking.report import summarise, summary_lines, write_outputs
 from apps.tracking.uav_app import SYSTEMS
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.core import POLICIES
+from wiswarm_zenoh.options import (
     RATE,
     SEED,
     TIME,
+    UsageError,
     finite_float,
     positive_float,
     positive_int,
+    require_testbed,
     writable_dir,
 )
-from wiswarm_zenoh.cli.testbed import require_testbed
-from wiswarm_zenoh.cli.usage import UsageError
-from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.testbed import ChannelSpec
 
 log = logging.getLogger(__name__)

@@ -35,16 +35,17 @@ from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
-from wiswarm_zenoh.core import LeaderConfig
-from wiswarm_zenoh.core.policies import POLICIES
-from wiswarm_zenoh.testbed import Channel, ChannelSpec
-from wiswarm_zenoh.testbed.netns import entered, run_in
-from wiswarm_zenoh.testbed.nodes import Placement
-from wiswarm_zenoh.transport import LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.report import LiveTable
-from wiswarm_zenoh.transport.runners import run_router, wait_until_stopped
-from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
+from wiswarm_zenoh.core import POLICIES, LeaderConfig
+from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
+from wiswarm_zenoh.transport import (
+    Children,
+    LeaderNode,
+    LiveTable,
+    SessionSpec,
+    free_tcp_port,
+    run_router,
+    wait_until_stopped,
+)
 
 log = logging.getLogger(__name__)
 

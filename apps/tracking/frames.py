@@ -15,7 +15,7 @@ import msgpack
 import numpy as np
 
 from apps.tracking.geometry import CameraModel, GrayImage, Pose
-from wiswarm_zenoh.core.errors import WireError
+from wiswarm_zenoh.core import WireError
 
 FRAME_VERSION = 1
 _KEYS = frozenset({"v", "t", "pose", "fov", "w", "h", "px"})

@@ -25,7 +25,7 @@ from apps.tracking.frames import FrameError, decode_frame
 from apps.tracking.geometry import Arena, CameraModel
 from apps.tracking.tracker import CarTracker, Plan, TrackerConfig
 from apps.tracking.vision import MarkerDetector
-from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport import BadInputLog
 
 log = logging.getLogger(__name__)
 

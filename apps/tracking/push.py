@@ -21,9 +21,8 @@ import zenoh
 
 from apps.tracking.reception import Reception
 from wiswarm_zenoh.baselines import Receiver
-from wiswarm_zenoh.core import Waypoint
-from wiswarm_zenoh.core.wire import Control, encode_control, validate_waypoints
-from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.core import Control, Waypoint, encode_control, validate_waypoints
+from wiswarm_zenoh.transport import SwarmKeys
 
 log = logging.getLogger(__name__)
 

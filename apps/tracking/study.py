@@ -21,22 +21,20 @@ from typing import Any
 
 from apps.tracking import demo
 from apps.tracking.report import summarise
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.options import (
     COUNTS,
     SEED,
+    ProgressBar,
+    UsageError,
+    add_channel_arguments,
     add_rate_grid,
+    channel_spec,
+    format_rate,
     positive_float,
+    require_testbed,
     writable_dir,
 )
-from wiswarm_zenoh.cli.sim import ProgressBar
-from wiswarm_zenoh.cli.testbed import (
-    add_channel_arguments,
-    channel_spec,
-    require_testbed,
-)
-from wiswarm_zenoh.cli.usage import UsageError
-from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
-from wiswarm_zenoh.units import format_rate
+from wiswarm_zenoh.testbed import best_of_grid, share_fps
 
 SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
 COLUMNS = ("system", "n", "rate_hz", "mean_tracking_error_m", "p95_tracking_error_m",

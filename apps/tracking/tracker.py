@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 from apps.tracking.frames import Frame
 from apps.tracking.geometry import Arena
 from apps.tracking.vision import Detection
-from wiswarm_zenoh.core.wire import Waypoint
+from wiswarm_zenoh.core import Waypoint
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import threading
 from collections.abc import Sequence
 
 from apps.tracking.geometry import Arena
-from wiswarm_zenoh.core.wire import MAX_WAYPOINTS, Waypoint
+from wiswarm_zenoh.core import MAX_WAYPOINTS, Waypoint
 
 log = logging.getLogger(__name__)
 

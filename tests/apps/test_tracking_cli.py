@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from apps.tracking.cli import add_demo_arguments, options_from, run_demo
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.options import OneLineParser, UsageError
 
 
 def parse(*argv: str) -> argparse.Namespace:

@@ -14,7 +14,7 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import NameOID
 
 from wiswarm_zenoh.cli.main import main
-from wiswarm_zenoh.cli.usage import UsageError
+from wiswarm_zenoh.options import UsageError
 from wiswarm_zenoh.security import pki
 from wiswarm_zenoh.testbed.faults import Output
 from wiswarm_zenoh.transport import SessionSpec

@@ -10,7 +10,8 @@ from collections.abc import Sequence
 import pytest
 
 import wiswarm_zenoh.cli.testbed as cli
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh import options
+from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.testbed import (
     Channel,
     TestbedUnavailable,
@@ -67,7 +68,7 @@ def test_without_root_it_says_so_and_points_to_the_simulator(
     def not_root() -> None:
         raise TestbedUnavailable(unavailable_reason(1000, shutil.which) or "")
 
-    monkeypatch.setattr(cli, "check_available", not_root)
+    monkeypatch.setattr(options.testbed, "check_available", not_root)
     for action in (["up"], ["down"], ["status"], ["set", "--rate", "5mbit"]):
         err = _one_line_error(capsys, ["testbed", *action])
         assert "needs root" in err and "wiswarm sim link" in err
@@ -83,10 +84,10 @@ def test_help_explains_every_flag(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_sizes_are_in_tcs_spelling() -> None:
-    assert [cli.parse_size(text) for text in ("32kb", "32k", "1mb", "40000", "1500b")] == [
+    assert [options.parse_size(text) for text in ("32kb", "32k", "1mb", "40000", "1500b")] == [
         32768, 32768, 1024**2, 40000, 1500]
     with pytest.raises(ValueError, match="size"):
-        cli.parse_size("32kbit")
+        options.parse_size("32kbit")
 
 
 @needs_root

@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 from wiswarm_zenoh.baselines.senders import resolve
 from wiswarm_zenoh.baselines.stamp import LENGTH, MAX_TCP_LENGTH, MAX_UDP_PAYLOAD
-from wiswarm_zenoh.cli.usage import UsageError
+from wiswarm_zenoh.usage import UsageError
 
 log = logging.getLogger(__name__)
 

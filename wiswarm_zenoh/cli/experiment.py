@@ -25,7 +25,7 @@ from wiswarm_zenoh.cli.arguments import (
     writable_dir,
 )
 from wiswarm_zenoh.cli.sim import ProgressBar
-from wiswarm_zenoh.cli.testbed import add_channel_arguments, channel_spec, require_testbed
+from wiswarm_zenoh.options import add_channel_arguments, channel_spec, require_testbed
 from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.sim.sweep import PAPER_NS
 from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study

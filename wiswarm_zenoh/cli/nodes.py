@@ -29,7 +29,9 @@ from wiswarm_zenoh.baselines import (
     run_receiver,
 )
 from wiswarm_zenoh.baselines import SYSTEMS as BASELINES
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.options import (
+    UsageError,
     add_zenoh_arguments,
     finite_float,
     host_port,
@@ -39,8 +41,6 @@ from wiswarm_zenoh.cli.arguments import (
     writable_dir,
     writable_file,
 )
-from wiswarm_zenoh.cli.usage import UsageError
-from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.security.checks import check_identity
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE

@@ -7,15 +7,16 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.options import (
     LISTEN_ENDPOINT,
+    OneLineParser,
+    UsageError,
     host_name,
     integer,
     listed,
     node_name,
     writable_dir,
 )
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.security import configs
 from wiswarm_zenoh.security.acl import Roster
 from wiswarm_zenoh.security.deploy import ROUTER_CONFIG, Plan, add_follower, init

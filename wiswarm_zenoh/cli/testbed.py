@@ -8,52 +8,25 @@ ends) and says how to start nodes inside it; ``set`` changes its rate mid-run,
 from __future__ import annotations
 
 import argparse
-import re
 from typing import Any
 
-from wiswarm_zenoh.cli.arguments import RATE, TIME, ArgType
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.options import (
+    RUN_ID,
+    OneLineParser,
+    UsageError,
+    add_channel_arguments,
+    add_rates,
+    channel_spec,
+    require_testbed,
+)
 from wiswarm_zenoh.testbed import (
     Channel,
-    ChannelSpec,
     LinkCounters,
-    TestbedUnavailable,
-    check_available,
     list_channels,
     remove_channel,
 )
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
 from wiswarm_zenoh.units import format_rate
-
-_SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)
-_SIZE_UNITS = {None: 1, "b": 1, "k": 1024, "kb": 1024, "m": 1024**2, "mb": 1024**2}
-
-
-def parse_size(text: str) -> int:
-    """``32kb`` -> 32768 bytes, in tc's spelling (k/kb = 1024 bytes, m/mb = 1024**2)."""
-    found = _SIZE.match(text)
-    if found is None:
-        raise ValueError(f"size {text!r} is not a size: write it like 32kb or 40000 (bytes)")
-    unit = found.group(2).lower() if found.group(2) else None
-    return int(found.group(1)) * _SIZE_UNITS[unit]
-
-
-def _run_id(text: str) -> str:
-    """A channel's run id, as ``Channel`` takes it for a name (nothing is built)."""
-    Channel(name=text)
-    return text
-
-
-RUN_ID = ArgType("run id", _run_id)
-SIZE = ArgType("size", parse_size)
-
-
-def require_testbed() -> None:
-    """One line and exit 2 where namespaces cannot be built."""
-    try:
-        check_available()
-    except TestbedUnavailable as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _how_to_run(channel: Channel) -> str:
@@ -69,15 +42,6 @@ def _how_to_run(channel: Channel) -> str:
         f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
         f"remove it:       wiswarm testbed down {channel.run_id}",
     ))
-
-
-def channel_spec(args: argparse.Namespace) -> ChannelSpec:
-    """The channel that ``add_channel_arguments``' flags describe (UsageError if bad)."""
-    try:
-        return ChannelSpec(rate_bps=args.rate, queue_s=args.queue,
-                           down_rate_bps=args.down_rate, burst_bytes=args.burst)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _up(args: argparse.Namespace) -> int:
@@ -171,29 +135,6 @@ def _set(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
-    parser.add_argument("--rate", type=RATE, required=rate_required,
-                        default=None if rate_required else 20_000_000, metavar="RATE",
-                        help="the shared uplink's rate, followers -> leader, in tc's "
-                             "spelling (20mbit, 500kbit)" +
-                             ("" if rate_required else "; default 20mbit"))
-    parser.add_argument("--down-rate", type=RATE, metavar="RATE",
-                        help="the downlink's rate, leader -> followers (polls and control); "
-                             "default: as --rate")
-
-
-def add_channel_arguments(parser: argparse.ArgumentParser) -> None:
-    """The channel's shape: --rate, --down-rate, --queue, --burst (``channel_spec``)."""
-    _add_rates(parser, rate_required=False)
-    parser.add_argument("--queue", type=TIME, default=0.2,
-                        metavar="TIME", help="how long a packet may wait in each direction's "
-                        "queue before tail drop (tbf latency), e.g. 200ms; default 200ms")
-    parser.add_argument("--burst", type=SIZE, default=32 * 1024,
-                        metavar="SIZE", help="the token bucket's size: bytes sent back to back "
-                        "at line speed after a pause, at least one MTU packet, e.g. 32kb; "
-                        "default 32kb")
-
-
 def register(subparsers: Any) -> None:
     """Add ``testbed`` (up, down, status, set)."""
     testbed = subparsers.add_parser(
@@ -232,7 +173,7 @@ def register(subparsers: Any) -> None:
         "set", help="change a channel's rate while nodes run",
         description="Change the rates of a channel mid-run (tc qdisc change: queued packets "
                     "stay). Without --down-rate the downlink takes --rate too.")
-    _add_rates(set_rate, rate_required=True)
+    add_rates(set_rate, rate_required=True)
     set_rate.add_argument("run_id", nargs="?", metavar="RUN_ID", type=RUN_ID,
                           help="the channel (optional when exactly one exists)")
     set_rate.set_defaults(func=_set)

@@ -1,17 +1,4 @@
-"""User-facing errors of the command line: one line on stderr, exit code 2."""
+"""Moved: see wiswarm_zenoh.usage (temporary, until every importer is switched)."""
+from wiswarm_zenoh.usage import OneLineParser, UsageError
 
-from __future__ import annotations
-
-import argparse
-from typing import NoReturn
-
-
-class UsageError(Exception):
-    """A problem with flags or configuration that the user must fix (exit code 2)."""
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """An argument parser whose errors are a single line on stderr, exit code 2."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(2, f"{self.prog}: error: {message}\n")
+__all__ = ["OneLineParser", "UsageError"]

@@ -19,12 +19,20 @@ from wiswarm_zenoh.core.events import (
 from wiswarm_zenoh.core.follower import Follower
 from wiswarm_zenoh.core.leader import FollowerStats, Leader, PollRequest, drain
 from wiswarm_zenoh.core.policies import POLICIES, Policy, make_policy
-from wiswarm_zenoh.core.wire import Waypoint
+from wiswarm_zenoh.core.wire import (
+    MAX_WAYPOINTS,
+    Control,
+    Waypoint,
+    encode_control,
+    validate_waypoints,
+)
 
 __all__ = [
+    "MAX_WAYPOINTS",
     "POLICIES",
     "Answering",
     "AoITracker",
+    "Control",
     "Delivered",
     "Event",
     "Follower",
@@ -41,5 +49,7 @@ __all__ = [
     "Waypoint",
     "WireError",
     "drain",
+    "encode_control",
     "make_policy",
+    "validate_waypoints",
 ]

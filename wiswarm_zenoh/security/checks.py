@@ -16,8 +16,8 @@ from cryptography import x509
 from cryptography.exceptions import InvalidSignature
 from cryptography.hazmat.primitives import serialization
 
-from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.security.pki import common_name
+from wiswarm_zenoh.usage import UsageError
 
 TLS = "transport/link/tls"
 CA = "root_ca_certificate"

@@ -8,7 +8,8 @@ from wiswarm_zenoh.testbed.channel import (
     list_channels,
     remove_channel,
 )
-from wiswarm_zenoh.testbed.netns import enter, run_in
+from wiswarm_zenoh.testbed.netns import enter, entered, run_in
+from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.spec import (
     ChannelSpec,
     LinkCounters,
@@ -16,17 +17,22 @@ from wiswarm_zenoh.testbed.spec import (
     check_available,
     unavailable_reason,
 )
+from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
 
 __all__ = [
     "Channel",
     "ChannelSpec",
     "LinkCounters",
+    "Placement",
     "TestbedUnavailable",
+    "best_of_grid",
     "check_available",
     "cleanup_leftovers",
     "enter",
+    "entered",
     "list_channels",
     "remove_channel",
     "run_in",
+    "share_fps",
     "unavailable_reason",
 ]

@@ -39,8 +39,8 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 
-from wiswarm_zenoh.cli.usage import OneLineParser
 from wiswarm_zenoh.units import parse_seconds
+from wiswarm_zenoh.usage import OneLineParser
 
 log = logging.getLogger(__name__)
 

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import zenoh
 
-from wiswarm_zenoh.cli.usage import UsageError
 from wiswarm_zenoh.security.checks import check_tls
+from wiswarm_zenoh.usage import UsageError
 
 MODES = ("peer", "client", "router")
 LOCAL_ROUTER = "tcp/127.0.0.1:7447"

@@ -1,0 +1,75 @@
+"""Command-line pieces for anything that builds the emulated channel (the ``testbed``
+commands, the experiments, applications' own runs): its flags and the check that this
+machine can build it."""
+
+from __future__ import annotations
+
+import argparse
+import re
+
+from wiswarm_zenoh.options.arguments import RATE, TIME, ArgType
+from wiswarm_zenoh.testbed import Channel, ChannelSpec, TestbedUnavailable, check_available
+from wiswarm_zenoh.usage import UsageError
+
+_SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)
+_SIZE_UNITS = {None: 1, "b": 1, "k": 1024, "kb": 1024, "m": 1024**2, "mb": 1024**2}
+
+
+def parse_size(text: str) -> int:
+    """``32kb`` -> 32768 bytes, in tc's spelling (k/kb = 1024 bytes, m/mb = 1024**2)."""
+    found = _SIZE.match(text)
+    if found is None:
+        raise ValueError(f"size {text!r} is not a size: write it like 32kb or 40000 (bytes)")
+    unit = found.group(2).lower() if found.group(2) else None
+    return int(found.group(1)) * _SIZE_UNITS[unit]
+
+
+def _run_id(text: str) -> str:
+    """A channel's run id, as ``Channel`` takes it for a name (nothing is built)."""
+    Channel(name=text)
+    return text
+
+
+RUN_ID = ArgType("run id", _run_id)
+SIZE = ArgType("size", parse_size)
+
+
+def require_testbed() -> None:
+    """One line and exit 2 where namespaces cannot be built."""
+    try:
+        check_available()
+    except TestbedUnavailable as exc:
+        raise UsageError(str(exc)) from None
+
+
+def channel_spec(args: argparse.Namespace) -> ChannelSpec:
+    """The channel that ``add_channel_arguments``' flags describe (UsageError if bad)."""
+    try:
+        return ChannelSpec(rate_bps=args.rate, queue_s=args.queue,
+                           down_rate_bps=args.down_rate, burst_bytes=args.burst)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def add_rates(parser: argparse.ArgumentParser, rate_required: bool) -> None:
+    """--rate (required for `testbed set`, where it is the change) and --down-rate."""
+    parser.add_argument("--rate", type=RATE, required=rate_required,
+                        default=None if rate_required else 20_000_000, metavar="RATE",
+                        help="the shared uplink's rate, followers -> leader, in tc's "
+                             "spelling (20mbit, 500kbit)" +
+                             ("" if rate_required else "; default 20mbit"))
+    parser.add_argument("--down-rate", type=RATE, metavar="RATE",
+                        help="the downlink's rate, leader -> followers (polls and control); "
+                             "default: as --rate")
+
+
+def add_channel_arguments(parser: argparse.ArgumentParser) -> None:
+    """The channel's shape: --rate, --down-rate, --queue, --burst (``channel_spec``)."""
+    add_rates(parser, rate_required=False)
+    parser.add_argument("--queue", type=TIME, default=0.2,
+                        metavar="TIME", help="how long a packet may wait in each direction's "
+                        "queue before tail drop (tbf latency), e.g. 200ms; default 200ms")
+    parser.add_argument("--burst", type=SIZE, default=32 * 1024,
+                        metavar="SIZE", help="the token bucket's size: bytes sent back to back "
+                        "at line speed after a pause, at least one MTU packet, e.g. 32kb; "
+                        "default 32kb")
