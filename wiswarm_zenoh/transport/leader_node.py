@@ -21,7 +21,7 @@ import random
 import socket
 import threading
 import time
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import TypeVar
@@ -57,7 +57,6 @@ Arrival = tuple[FollowerLink, zenoh.Reply] | None  # a reply as its get brings i
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
-ZENOH_TIMEOUT = b"Timeout"  # the error reply Zenoh itself gives a get that timed out
 
 
 def _notify(callback: Callable[[T], object], arg: T) -> None:
@@ -119,7 +118,6 @@ class LeaderNode:
         self._inbox: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
         self._stop = threading.Event()
         self._links: dict[str, FollowerLink] = {}
-        self._transport_errors: Counter[str] = Counter()
         self.bad_input = BadInputLog(log)
         self._control_version = 0
         self._control_sent: tuple[int, float] = (-1, 0.0)  # (version, time) of the last put
@@ -246,7 +244,7 @@ class LeaderNode:
                     continue
                 if arrival is not None:
                     link, reply = arrival
-                    data = self._payload(link, reply)
+                    data = link.payload(reply, self._max_reply, self.bad_input)
                     if data is not None:
                         with self._lock:
                             self._leader.receive_reply(link.follower, data, self._clock())
@@ -292,24 +290,6 @@ class LeaderNode:
                 self._control_sent = (version, now)
             self._links[request.follower].poll(request.payload)
         self._hand_on()
-
-    def _payload(self, link: FollowerLink, reply: zenoh.Reply) -> bytes | None:
-        """A reply's bytes, or None for an error reply or one over the size limit (counted
-        and logged; Zenoh's own timeout at the ceiling is no error: the core's timer
-        has counted that poll unanswered long before)."""
-        sample = reply.ok
-        if sample is None:
-            reason = b"" if reply.err is None else reply.err.payload.to_bytes()[:80]
-            if reason != ZENOH_TIMEOUT:
-                self._transport_errors[link.follower] += 1
-                self.bad_input.report(link.key, f"error reply {reason!r}")
-            return None
-        data = sample.payload.to_bytes()  # Zenoh holds it whole already: copy, then judge
-        if len(data) > self._max_reply:
-            self._transport_errors[link.follower] += 1
-            self.bad_input.report(link.key, f"reply of {len(data)} bytes exceeds the limit")
-            return None
-        return data
 
     def _hand_on(self) -> None:
         """Drain the core's events and hand each on: a delivery to ``fresh`` (if anyone
@@ -359,7 +339,6 @@ class LeaderNode:
             if link is None:
                 continue
             link.close()
-            self._transport_errors.pop(follower, None)
             log.warning("follower %s left (its liveliness token is gone)", follower)
             if self._on_leave is not None:
                 _notify(self._on_leave, follower)
@@ -373,5 +352,4 @@ class LeaderNode:
             return
         if self._stats.between_rounds and self._handover.epoch >= self._leader.epoch:
             self._raise_epoch(take_state=False)
-        self._stats.publish(now, self._leader, self._lock, self._links,
-                            self._transport_errors)
+        self._stats.publish(now, self._leader, self._lock, self._links)

@@ -16,8 +16,11 @@ from typing import cast
 
 import zenoh
 
+from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
+
+ZENOH_TIMEOUT = b"Timeout"  # the error reply Zenoh itself gives a get that timed out
 
 
 @dataclass
@@ -28,6 +31,7 @@ class FollowerLink:
     stats: zenoh.Publisher
     fresh: zenoh.Publisher
     listening: bool = False  # some subscriber matches ``fresh``
+    errors: int = 0  # replies refused here, before the core (error replies, oversized)
     _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
     querier: zenoh.Querier | None = field(default=None, repr=False)
     _on_reply: zenoh.handlers.Callback[zenoh.Reply] | None = field(default=None, repr=False)
@@ -70,6 +74,24 @@ class FollowerLink:
         """Send a poll: its replies go to ``on_reply`` (see ``open``), on Zenoh's thread."""
         assert self.querier is not None and self._on_reply is not None, "polled after close()"
         self.querier.get(self._on_reply, payload=payload)
+
+    def payload(self, reply: zenoh.Reply, limit: int, bad_input: BadInputLog) -> bytes | None:
+        """A reply's bytes, or None for an error reply or one over ``limit`` bytes (counted
+        and logged; Zenoh's own timeout at the ceiling is no error: the core's timer has
+        counted that poll unanswered long before)."""
+        sample = reply.ok
+        if sample is None:
+            reason = b"" if reply.err is None else reply.err.payload.to_bytes()[:80]
+            if reason != ZENOH_TIMEOUT:
+                self.errors += 1
+                bad_input.report(self.key, f"error reply {reason!r}")
+            return None
+        data = sample.payload.to_bytes()  # Zenoh holds it whole already: copy, then judge
+        if len(data) > limit:
+            self.errors += 1
+            bad_input.report(self.key, f"reply of {len(data)} bytes exceeds the limit")
+            return None
+        return data
 
     def _on_matching(self, status: zenoh.MatchingStatus) -> None:
         self.listening = status.matching

@@ -5,7 +5,7 @@ once while polling waits), and the summary on ``leader/stats`` once a round is d
 from __future__ import annotations
 
 import threading
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Mapping
 
 import zenoh
@@ -46,7 +46,7 @@ class StatsRounds:
         self._owed.clear()
 
     def publish(self, now: float, leader: Leader, lock: threading.Lock,
-                links: Mapping[str, FollowerLink], transport_errors: Counter[str]) -> None:
+                links: Mapping[str, FollowerLink]) -> None:
         """Publish the records due by ``now`` (and the summary if the round is done)."""
         if not self._owed:
             with lock:
@@ -58,9 +58,9 @@ class StatsRounds:
         with lock:
             while self._owed and size - len(self._owed) < owed_now:
                 follower = self._owed.popleft()
-                if follower in links:  # not gone since the round began
-                    batch.append(follower_stats(leader.stats(follower, now),
-                                                transport_errors[follower]))
+                link = links.get(follower)
+                if link is not None:  # not gone since the round began
+                    batch.append(follower_stats(leader.stats(follower, now), link.errors))
             polls, epoch = leader.polls, leader.epoch
         for record in batch:
             links[record.follower].stats.put(to_json(record.as_dict()))
