@@ -12,6 +12,13 @@ active leader; once it heals, each sees the other's token again and the younger 
 down, so two leaders poll for at most the time Zenoh takes to tell them of each other.
 Start times come from each host's clock: hosts a few ms apart order leaders started at
 least that far apart, which is all the rule needs.
+
+A token that flaps (a router link that drops and comes back at once) must not hand the
+swarm over and back: the active leader's token counts as gone only once it has stayed
+away for ``grace`` (default a quarter of a second, a quarter of the 1 s takeover budget);
+one back before then is logged as a flap and nothing changes. A leader appearing, or
+any other token going, is judged at once: the younger of two active leaders steps down
+without delay.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ log = logging.getLogger(__name__)
 
 Claim = tuple[int, str]  # (start in microseconds, name): the smallest leads
 ASK_TIMEOUT = 2.0  # seconds: the routers answer at once; this bounds a start with none
+TAKEOVER_GRACE = 0.25  # seconds the active leader's token must stay away to count as gone
 
 
 class Election:
@@ -36,26 +44,27 @@ class Election:
     (on Zenoh's thread: keep it short) whenever the active leader changes."""
 
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, name: str, started_us: int,
-                 on_change: Callable[[], None]) -> None:
+                 on_change: Callable[[], None], grace: float = TAKEOVER_GRACE) -> None:
         self.keys = keys
         self.claim: Claim = (started_us, check_name(name, "leader name"))
         self._on_change = on_change
+        self._grace = grace
         self._lock = threading.Lock()
         self._claims: set[Claim] = {self.claim}
+        self._leaving: dict[Claim, threading.Timer] = {}  # the active's token, gone lately
+        self.flaps = 0  # times the active leader's token came back within the grace
         self._active = self.claim
         liveliness = session.liveliness()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
-        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
-        # The subscriber's history comes on another thread, maybe after the first poll
-        # would go out: ask for the tokens already there, so a standby never starts active.
+        # Ask for the tokens already there before watching: a standby never starts active,
+        # and the watch's history (on another thread) then brings nothing new.
         for reply in liveliness.get(keys.leaders, timeout=ASK_TIMEOUT):
             if reply.ok is not None:
                 claim = _claim_of(str(reply.ok.key_expr), keys.swarm)
                 if claim is not None:
-                    with self._lock:
-                        self._claims.add(claim)
-        with self._lock:
-            self._active = min(self._claims)
+                    self._claims.add(claim)
+        self._active = min(self._claims)
+        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
 
     @property
     def active(self) -> Claim:
@@ -74,12 +83,39 @@ class Election:
             return
         with self._lock:
             if sample.kind == zenoh.SampleKind.PUT:
+                leaving = self._leaving.pop(claim, None)
+                if leaving is not None:
+                    leaving.cancel()
+                    self.flaps += 1
+                    log.warning("the token of active leader %s went and came back within "
+                                "%.0f ms (flap %d): it stays active", claim[1],
+                                self._grace * 1e3, self.flaps)
+                    return
                 if claim != self.claim and claim[1] == self.claim[1]:
                     log.warning("another leader is named %s too (started at %d us): "
                                 "the older of the two leads", claim[1], claim[0])
                 self._claims.add(claim)
+            elif claim == self._active and claim != self.claim and self._grace > 0:
+                if claim not in self._leaving:
+                    timer = threading.Timer(self._grace, self._gone, (claim,))
+                    timer.daemon = True
+                    self._leaving[claim] = timer
+                    timer.start()
+                return
             elif claim != self.claim:  # our own token goes only when we close
                 self._claims.discard(claim)
+        self._judge()
+
+    def _gone(self, claim: Claim) -> None:
+        """The active leader's token stayed away for the grace: it is gone."""
+        with self._lock:
+            if self._leaving.pop(claim, None) is None:
+                return  # it came back meanwhile
+            self._claims.discard(claim)
+        self._judge()
+
+    def _judge(self) -> None:
+        with self._lock:
             active = min(self._claims)
             changed, self._active = active != self._active, active
         if changed:
@@ -88,6 +124,10 @@ class Election:
             self._on_change()
 
     def close(self) -> None:
+        with self._lock:
+            for timer in self._leaving.values():
+                timer.cancel()
+            self._leaving.clear()
         undeclare(self._watch, self._token)
 
 

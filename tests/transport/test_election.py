@@ -1,0 +1,79 @@
+"""The election on real liveliness tokens: a flapping token of the active leader hands
+nothing over; one that stays away does, after the grace. Real sessions on loopback."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable
+
+import pytest
+import zenoh
+
+from wiswarm_zenoh.transport import SwarmKeys
+from wiswarm_zenoh.transport.election import Election
+
+from .helpers import WAIT, Sessions
+
+SWARM = "elect"
+GRACE = 0.5  # seconds: long enough that a token put back at once is surely within it
+
+
+def _until(what: str, check: Callable[[], bool]) -> None:
+    """Until ``check()`` (the election counts a flap on Zenoh's thread, not an event)."""
+    deadline = time.monotonic() + WAIT
+    while not check():
+        assert time.monotonic() < deadline, f"timed out: {what}"
+        time.sleep(0.001)
+
+
+def _token_known(session: zenoh.Session, key: str) -> None:
+    """Until ``session`` can see the token ``key`` (declarations travel via the router)."""
+    _until(f"{key} known", lambda: any(
+        r.ok is not None for r in session.liveliness().get(key, timeout=1.0)))
+
+
+def test_a_flapping_token_keeps_its_leader_and_a_lasting_loss_hands_over(
+    sessions: Sessions, router: zenoh.Session, port: int, caplog: pytest.LogCaptureFixture
+) -> None:
+    keys = SwarmKeys(SWARM)
+    other = sessions.node(port).liveliness()
+    older = other.declare_token(keys.leader("older", 1))
+    changes = threading.Semaphore(0)
+    standby = sessions.node(port)
+    _token_known(standby, keys.leader("older", 1))
+    with caplog.at_level(logging.WARNING, "wiswarm_zenoh"):
+        election = Election(standby, keys, "standby", 2, changes.release, grace=GRACE)
+        try:
+            assert election.active == (1, "older") and not election.leading
+            for flap in (1, 2):  # gone and back at once, twice
+                older.undeclare()
+                older = other.declare_token(keys.leader("older", 1))
+                _until("the flap is seen", lambda n=flap: election.flaps == n)
+                assert election.active == (1, "older")
+            assert not changes.acquire(timeout=0)  # nothing was handed over
+            assert "went and came back" in caplog.text
+            gone_at = time.monotonic()
+            older.undeclare()  # for good
+            assert changes.acquire(timeout=WAIT), "the standby never took over"
+            assert time.monotonic() - gone_at >= GRACE * 0.9  # not before the grace
+            assert election.leading and election.flaps == 2
+        finally:
+            election.close()
+
+
+def test_an_older_leader_appearing_is_obeyed_at_once(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    election = Election(sessions.node(port), keys, "young", 5, changes.release, grace=60.0)
+    try:
+        assert election.leading
+        token = sessions.node(port).liveliness().declare_token(keys.leader("old", 1))
+        assert changes.acquire(timeout=WAIT)  # no grace on the way down: well within 60 s
+        assert election.active == (1, "old") and not election.leading
+        token.undeclare()
+    finally:
+        election.close()
