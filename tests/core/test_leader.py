@@ -13,6 +13,7 @@ from wiswarm_zenoh.core import (
     LeaderConfig,
     Rejected,
     Stale,
+    drain,
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fragments import checksum
@@ -226,11 +227,36 @@ def test_remove_while_in_flight() -> None:
     assert len(events) == 1 and isinstance(events[0], Stale)
     assert leader.unknown_replies == 1
     assert poll(leader, 0.01).follower == "b"
-    with pytest.raises(ValueError, match="unknown follower"):
-        leader.stats("a", 0.01)
+    assert leader.departed == ["a"]
     leader.remove_follower("a")  # already gone: nothing to do
     leader.remove_follower("b")
     assert leader.next_poll(1.0) is None
+
+
+def test_a_follower_that_left_ages_honestly_until_forgotten_or_back() -> None:
+    """A vanished follower (a site cut off upstream) is not reported fresh: its age keeps
+    growing in its stats; back again, it is taken up where it was, not from age 0."""
+    leader, followers = _setup("a", "b")
+    followers["a"].offer(b"x", 0.0)
+    _, _, events = exchange(leader, followers, 0.0)
+    assert [type(e) for e in events] == [Delivered]
+    leader.remove_follower("a")
+    for now in (1.0, 5.0):
+        gone = leader.stats("a", now)
+        assert not gone.present and gone.aoi_s == pytest.approx(now, abs=0.01)
+        assert poll(leader, now).follower == "b"  # a is polled no more
+        leader.handle_timer(now + 1.0)
+        drain(leader)
+    leader.add_follower("a", 9.0)
+    back = leader.stats("a", 9.0)
+    assert back.present and back.aoi_s == pytest.approx(9.0, abs=0.01)  # not fresh
+    assert back.deliveries == 1 and leader.departed == []
+    leader.remove_follower("a")
+    leader.forget_follower("a")
+    with pytest.raises(ValueError, match="unknown follower"):
+        leader.stats("a", 10.0)
+    leader.add_follower("a", 11.0)  # forgotten: a newcomer
+    assert leader.stats("a", 11.0).deliveries == 0
 
 
 def test_remove_another_follower_keeps_the_poll_in_flight() -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import threading
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, cast
@@ -117,3 +118,12 @@ def wait_until_known(session: zenoh.Session, key: str) -> None:
     finally:
         listener.undeclare()
         publisher.undeclare()
+
+
+def eventually(what: str, check: Callable[[], bool]) -> None:
+    """Until ``check()``, for a state that no callback announces (a log line, a counter
+    set on Zenoh's thread): looked at every millisecond, up to WAIT."""
+    deadline = time.monotonic() + WAIT
+    while not check():
+        assert time.monotonic() < deadline, f"timed out: {what}"
+        time.sleep(0.001)

@@ -6,7 +6,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable
 
 import pytest
 import zenoh
@@ -14,23 +13,15 @@ import zenoh
 from wiswarm_zenoh.transport import SwarmKeys
 from wiswarm_zenoh.transport.election import Election
 
-from .helpers import WAIT, Sessions
+from .helpers import WAIT, Sessions, eventually
 
 SWARM = "elect"
 GRACE = 0.5  # seconds: long enough that a token put back at once is surely within it
 
 
-def _until(what: str, check: Callable[[], bool]) -> None:
-    """Until ``check()`` (the election counts a flap on Zenoh's thread, not an event)."""
-    deadline = time.monotonic() + WAIT
-    while not check():
-        assert time.monotonic() < deadline, f"timed out: {what}"
-        time.sleep(0.001)
-
-
 def _token_known(session: zenoh.Session, key: str) -> None:
     """Until ``session`` can see the token ``key`` (declarations travel via the router)."""
-    _until(f"{key} known", lambda: any(
+    eventually(f"{key} known", lambda: any(
         r.ok is not None for r in session.liveliness().get(key, timeout=1.0)))
 
 
@@ -50,7 +41,7 @@ def test_a_flapping_token_keeps_its_leader_and_a_lasting_loss_hands_over(
             for flap in (1, 2):  # gone and back at once, twice
                 older.undeclare()
                 older = other.declare_token(keys.leader("older", 1))
-                _until("the flap is seen", lambda n=flap: election.flaps == n)
+                eventually("the flap is seen", lambda n=flap: election.flaps == n)
                 assert election.active == (1, "older")
             assert not changes.acquire(timeout=0)  # nothing was handed over
             assert "went and came back" in caplog.text

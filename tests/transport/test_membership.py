@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 import os
 import signal
 
+import pytest
 import zenoh
 
 from wiswarm_zenoh.core import FollowerConfig, LeaderConfig
@@ -13,7 +15,7 @@ from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.frames import SyntheticFrames
 from wiswarm_zenoh.transport.runners import FollowerOptions, run_child, run_follower
 
-from .helpers import WAIT, Recorder, Samples, Sessions
+from .helpers import WAIT, Recorder, Samples, Sessions, eventually
 
 SWARM = "m"
 
@@ -114,3 +116,35 @@ def test_a_hung_follower_costs_one_timeout_per_poll_and_its_p_hat_falls(
         query.drop()
     hung_queryable.undeclare()
     hung_token.undeclare()
+
+
+def test_a_follower_that_left_ages_in_its_stats_then_is_forgotten(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder,
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """A vanished follower (a site cut off upstream) is not reported fresh: its stats go
+    on with its age growing and ``present`` false; back, its age is not reset; gone for
+    ``forget_after``, it is forgotten."""
+    key = f"wiswarm/{SWARM}/uav1/stats"
+    watch = Samples(sessions.node(port), key)
+    with caplog.at_level(logging.INFO, "wiswarm_zenoh"), \
+            LeaderNode(sessions.node(port), SWARM, stats_period=0.05, forget_after=1.0,
+                       **recorder.callbacks()) as leader:
+        first = sessions.node(port)
+        node = FollowerNode(first, SWARM, "uav1")
+        node.offer(b"frame")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 1)
+        first.close()
+        recorder.wait("leave", lambda r: r.leaves == ["uav1"])
+        watch.wait("ageing stats of the absent follower", lambda s: sum(
+            not r["present"] and r["aoi_s"] > 0.3 for r in s.stats(key)) >= 2)
+        ages = [r["aoi_s"] for r in watch.stats(key) if not r["present"]]
+        assert ages == sorted(ages)  # it only grows
+        node = FollowerNode(sessions.node(port), SWARM, "uav1")
+        recorder.wait("rejoin", lambda r: r.joins == ["uav1", "uav1"])
+        watch.wait("present again", lambda s: s.stats(key)[-1]["present"])
+        assert watch.stats(key)[-1]["deliveries"] == 1  # taken up where it was
+        node.close()
+        recorder.wait("second leave", lambda r: r.leaves == ["uav1", "uav1"])
+        eventually("forgotten", lambda: "uav1 forgotten" in caplog.text)
+        eventually("out of the stats", lambda: not leader.latest)

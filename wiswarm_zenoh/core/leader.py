@@ -36,7 +36,8 @@ class Leader:
     """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    ``add_follower``/``remove_follower``, ``receive_reply(follower, data, now)`` for
+    ``add_follower``/``remove_follower``/``forget_follower``,
+    ``receive_reply(follower, data, now)`` for
     every reply, ``handle_timer(now)`` at ``get_timer()``. Output: ``next_poll(now)``
     (a poll to send, or None while one is out or nobody is here), then ``next_event()``
     until it returns None. Bad bytes never raise: they come back as ``Rejected`` events
@@ -72,10 +73,16 @@ class Leader:
         self._events: deque[Event] = deque()
         self._pick: Pick | None = None
         self._picked_for = 0  # the poll a pick was last tried for
+        self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
 
     @property
     def followers(self) -> list[str]:
         return list(self.table.ids)
+
+    @property
+    def departed(self) -> list[str]:
+        """Followers that left and are not forgotten: polled no more, their age growing."""
+        return list(self._departed)
 
     @property
     def in_flight(self) -> str | None:
@@ -85,20 +92,28 @@ class Leader:
 
     def add_follower(self, follower: str, now: float) -> None:
         """A follower joined, or rejoined after a restart (its transfer state is reset;
-        a reply it gave before is taken first, as things were then)."""
+        a reply it gave before is taken first, as things were then). One that left and
+        comes back is taken up where it was: its age is what its last delivery makes it,
+        not a fresh start."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._advance(settle=True)
         self._pick = None
         peer = self.table.peers.get(follower)
-        if peer is None:
-            self.table.add(follower, Peer.new(follower, self.config, now))
-        else:
+        if peer is not None:
             peer.restart()
+            return
+        back = self._departed.pop(follower, None)
+        if back is not None:
+            back.restart()
+        self.table.add(follower, back or Peer.new(follower, self.config, now))
 
     def remove_follower(self, follower: str) -> None:
-        """Forget a follower (its liveliness token went), with its poll and replies."""
-        if follower not in self.table.peers:
+        """A follower left (its liveliness token went): it is polled no more, its poll
+        and replies are dropped. Its record stays, ageing (``stats``, ``departed``), as
+        nothing fresh comes from it, until ``forget_follower`` or its return."""
+        peer = self.table.peers.get(follower)
+        if peer is None:
             return
         if self._flight is not None and self._flight.request.follower == follower:
             self._flight = None
@@ -106,8 +121,14 @@ class Leader:
                               if life.request.follower != follower)
         self._pick = None
         self.table.remove(follower)
+        self._departed[follower] = peer
         if self._waypoints.pop(follower, None) is not None:
             self._packed_control = None
+
+    def forget_follower(self, follower: str) -> None:
+        """Drop the record of a follower that left (the shell decides how long to keep
+        showing its age)."""
+        self._departed.pop(follower, None)
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """The application's latest control information for one follower."""
@@ -220,8 +241,12 @@ class Leader:
         return None if self._flight is None else self._flight.request.deadline
 
     def stats(self, follower: str, now: float) -> FollowerStats:
-        """One follower's figures, every reply so far taken (their events wait)."""
+        """One follower's figures, every reply so far taken (their events wait); for one
+        that left, its figures as they stand now (``present`` False, its age growing)."""
         self._advance(settle=True)
+        gone = self._departed.get(follower)
+        if gone is not None:
+            return gone.stats(follower, now, present=False)
         return self._peer(follower).stats(follower, now)
 
     # --- inside ---
@@ -240,7 +265,7 @@ class Leader:
         """A valid reply to a poll that is not out: late (it lengthens the follower's
         timeout: its link is slower than measured) or stale."""
         peer.stale += 1
-        sent_at = _late(peer, reply.poll_seq) if reply.follower == follower else None
+        sent_at = peer.late(reply.poll_seq) if reply.follower == follower else None
         if sent_at is None:
             self._events.append(Stale(follower, f"reply to poll {reply.poll_seq}, "
                                                 "not the one in flight"))
@@ -330,16 +355,6 @@ class Leader:
 def _check_epoch(epoch: int) -> None:
     if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
         raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")
-
-
-def _late(peer: Peer, poll_seq: int) -> float | None:
-    """When poll ``poll_seq`` of ``peer`` was sent, if it went unanswered lately (and is
-    then forgotten: one late reply teaches once)."""
-    for entry in peer.timed_out:
-        if entry[0] == poll_seq:
-            peer.timed_out.remove(entry)
-            return entry[1]
-    return None
 
 
 def drain(leader: Leader) -> list[Event]:

@@ -44,6 +44,7 @@ class FollowerStats:
     errors: int
     stale: int
     clock_offset_s: float
+    present: bool = True  # False: it left (token gone); its age keeps growing here
 
     def as_dict(self) -> dict[str, float | int | str]:
         # Its fields are plain numbers and a string: a shallow copy is the whole of it,
@@ -111,6 +112,15 @@ class Peer:
         (polling it sooner cannot lower its age)."""
         return max(self.aoi.tau, self.idle_since, self.unsettled_tau)
 
+    def late(self, poll_seq: int) -> float | None:
+        """When its poll ``poll_seq`` was sent, if that poll went unanswered lately (and
+        is then forgotten: one late reply teaches once)."""
+        for entry in self.timed_out:
+            if entry[0] == poll_seq:
+                self.timed_out.remove(entry)
+                return entry[1]
+        return None
+
     def restart(self) -> None:
         """The follower came back (new process): forget its transfer state and clock."""
         self.reassembler.reset()
@@ -120,13 +130,13 @@ class Peer:
         self.ack = None
         self.want = "fresh"
 
-    def stats(self, follower: str, now: float) -> FollowerStats:
+    def stats(self, follower: str, now: float, present: bool = True) -> FollowerStats:
         return FollowerStats(
             follower=follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(now),
             p95_aoi_s=self.aoi.percentile(0.95, now), peak_aoi_s=self.aoi.peak(now),
             p_hat=self.reliability.value, weight=self.weight.value, polls=self.polls,
             deliveries=self.aoi.deliveries, timeouts=self.timeouts, errors=self.errors,
-            stale=self.stale, clock_offset_s=self.clock.offset,
+            stale=self.stale, clock_offset_s=self.clock.offset, present=present,
         )
 
 

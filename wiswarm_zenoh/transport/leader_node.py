@@ -21,7 +21,6 @@ import random
 import socket
 import threading
 import time
-from collections import deque
 from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import TypeVar
@@ -47,6 +46,7 @@ from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.transport.stats_rounds import StatsRounds
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
@@ -82,6 +82,9 @@ class LeaderNode:
     standby that takes over does so with an epoch above any it heard, and those weights
     and that control. ``name`` (default: host and process id) tells leaders apart in logs
     and in ``leader/stats``.
+
+    A follower whose token goes is polled no more; its stats go on, ageing, for
+    ``forget_after`` seconds (``membership``).
     """
 
     def __init__(
@@ -99,6 +102,7 @@ class LeaderNode:
         control_period: float = CONTROL_PERIOD,
         epoch: int | None = None,
         name: str | None = None,
+        forget_after: float = FORGET_AFTER,
     ) -> None:
         self.keys = SwarmKeys(swarm)
         self._session = session
@@ -114,10 +118,8 @@ class LeaderNode:
         self._control_period = control_period
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._lock = threading.Lock()  # the core, between the poll thread and callers
-        self._changes: deque[tuple[str, bool]] = deque()
         self._inbox: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
         self._stop = threading.Event()
-        self._links: dict[str, FollowerLink] = {}
         self.bad_input = BadInputLog(log)
         self._control_version = 0
         self._control_sent: tuple[int, float] = (-1, 0.0)  # (version, time) of the last put
@@ -125,8 +127,11 @@ class LeaderNode:
                                   self.config.policy, self.name)
         self._deliveries = DeliveryStream(session, self.keys)
         self._control = session.declare_publisher(self.keys.control, express=True)
-        self._members = session.liveliness().declare_subscriber(self.keys.members,
-                                                                self._on_member, history=True)
+        self._membership = Membership(
+            session, self.keys, self.config.timeout,
+            lambda link, reply: self._inbox.put((link, reply)), lambda: self._inbox.put(None),
+            self.bad_input, forget_after)
+        self._links = self._membership.links
         self._handover = Handover(session, self.keys)
         self._handover.own_epoch = self._leader.epoch
         self._election = Election(session, self.keys, self.name, self._leader.epoch,
@@ -187,10 +192,7 @@ class LeaderNode:
         self._thread.join()
         self._election.close()  # a standby takes over now
         self._handover.close()
-        undeclare(self._members)
-        for link in self._links.values():
-            link.close()
-        self._links.clear()
+        self._membership.close()
         self._deliveries.close()
         self._stats.close()
         undeclare(self._control)
@@ -204,21 +206,12 @@ class LeaderNode:
 
     # --- Zenoh callbacks ---
 
-    def _on_member(self, sample: zenoh.Sample) -> None:
-        key = str(sample.key_expr)
-        follower = self.keys.follower_of(key, "members")
-        if follower is None:
-            self.bad_input.report(key, "not a valid member key")
-            return
-        self._changes.append((follower, sample.kind == zenoh.SampleKind.PUT))
-        self._inbox.put(None)
-
     # --- the poll thread ---
 
     def _run(self) -> None:
         try:
             while not self._stop.is_set():
-                if self._changes:
+                if self._membership.changed:
                     self._apply_changes()
                 if self._election.leading != self._active:
                     self._take_role()
@@ -317,36 +310,20 @@ class LeaderNode:
                             event.silent_for)
 
     def _apply_changes(self) -> None:
-        while self._changes:
-            follower, joined = self._changes.popleft()
-            now = self._clock()
-            with self._lock:
-                if joined:
-                    self._leader.add_follower(follower, now)
-                    self._control_version += 1  # the newcomer needs the control now
-                else:
-                    self._leader.remove_follower(follower)
+        for follower, joined in self._membership.apply(self._leader, self._lock, self._clock()):
             if joined:
-                if follower not in self._links:
-                    self._links[follower] = FollowerLink.open(
-                        self._session, self.keys, follower, self.config.timeout,
-                        lambda link, reply: self._inbox.put((link, reply)))
-                log.info("follower %s joined", follower)
-                if self._on_join is not None:
-                    _notify(self._on_join, follower)
-                continue
-            link = self._links.pop(follower, None)
-            if link is None:
-                continue
-            link.close()
-            log.warning("follower %s left (its liveliness token is gone)", follower)
-            if self._on_leave is not None:
-                _notify(self._on_leave, follower)
+                with self._lock:
+                    self._control_version += 1  # the newcomer needs the control now
+            callback = self._on_join if joined else self._on_leave
+            if callback is not None:
+                _notify(callback, follower)
 
     def _publish_stats(self, now: float) -> None:
         """The stats due by ``now``, from the active leader only; at each new round, an
         active leader that hears an epoch as high as its own (two active across a
         partition) rises above it first."""
+        if self._stats.between_rounds:
+            self._membership.forget_departed(self._leader, self._lock, now)
         if not self._active:
             self._stats.pause(now)
             return

@@ -50,7 +50,7 @@ class StatsRounds:
         """Publish the records due by ``now`` (and the summary if the round is done)."""
         if not self._owed:
             with lock:
-                self._owed = deque(leader.followers)
+                self._owed = deque(leader.followers + leader.departed)
             self._round_start, self._round_size, self._records = now, len(self._owed), []
         start, size = self._round_start, self._round_size
         owed_now = min(size, int(size * (now - start) / self._period) + 1)

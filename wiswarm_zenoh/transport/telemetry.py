@@ -31,9 +31,10 @@ class LeaderSummary:
     @classmethod
     def of(cls, records: Sequence[FollowerStats], polls_per_s: float,
            policy: str, uptime_s: float, leader: str = "", epoch: int = 0) -> LeaderSummary:
-        means = [r.mean_aoi_s for r in records]
+        present = [r for r in records if r.present]  # those that left: in their own stats
+        means = [r.mean_aoi_s for r in present]
         return cls(
-            followers=[r.follower for r in records], polls_per_s=polls_per_s,
+            followers=[r.follower for r in present], polls_per_s=polls_per_s,
             mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
             uptime_s=uptime_s, leader=leader, epoch=epoch,
         )
