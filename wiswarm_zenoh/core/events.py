@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Protocol
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,3 +63,16 @@ class Answering:
 
 
 Event = Delivered | TimedOut | Rejected | Stale | Silent | Answering
+
+
+class EventSource(Protocol):
+    def next_event(self) -> Event | None: ...
+
+
+def drain(source: EventSource) -> list[Event]:
+    """Every event ``source`` (a leader) has now (``next_event`` until None), for shells
+    that have nothing to overlap with the work it does."""
+    events = []
+    while (event := source.next_event()) is not None:
+        events.append(event)
+    return events

@@ -9,14 +9,15 @@ from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
-from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale, TimedOut
-from wiswarm_zenoh.core.messages import MAX_INT
+from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale, TimedOut, drain
+from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.plausibility import implausible
 from wiswarm_zenoh.core.policies import make_policy
 from wiswarm_zenoh.core.poll_records import Pick, PollLife, PollRequest, Stage
 from wiswarm_zenoh.core.reply_work import settle_update, take_fragment
 from wiswarm_zenoh.core.scheduling import choose, pick_after
+from wiswarm_zenoh.core.site_links import SiteLinks
 from wiswarm_zenoh.core.wire import (
     Poll,
     Reply,
@@ -55,7 +56,7 @@ class Leader:
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
                  epoch: int = 0) -> None:
-        _check_epoch(epoch)
+        check_epoch(epoch)
         self.config = config or LeaderConfig()
         self.epoch = epoch  # in every poll and control: followers tell leaders apart by it
         self.policy = make_policy(self.config.policy, rng)
@@ -74,6 +75,7 @@ class Leader:
         self._pick: Pick | None = None
         self._picked_for = 0  # the poll a pick was last tried for
         self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
+        self.site_links = SiteLinks()
 
     @property
     def followers(self) -> list[str]:
@@ -90,11 +92,11 @@ class Leader:
 
     # --- input ---
 
-    def add_follower(self, follower: str, now: float) -> None:
+    def add_follower(self, follower: str, now: float, link: str | None = None) -> None:
         """A follower joined, or rejoined after a restart (its transfer state is reset;
         a reply it gave before is taken first, as things were then). One that left and
         comes back is taken up where it was: its age is what its last delivery makes it,
-        not a fresh start."""
+        not a fresh start. Followers given one ``link`` (a site) share its p."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._advance(settle=True)
@@ -106,7 +108,10 @@ class Leader:
         back = self._departed.pop(follower, None)
         if back is not None:
             back.restart()
-        self.table.add(follower, back or Peer.new(follower, self.config, now))
+        peer = back or Peer.new(follower, self.config, now)
+        if link is not None:
+            self.site_links.attach(follower, peer, link)
+        self.table.add(follower, peer)
 
     def remove_follower(self, follower: str) -> None:
         """A follower left (its liveliness token went): it is polled no more, its poll
@@ -121,6 +126,7 @@ class Leader:
                               if life.request.follower != follower)
         self._pick = None
         self.table.remove(follower)
+        self.site_links.detach(follower)
         self._departed[follower] = peer
         if self._waypoints.pop(follower, None) is not None:
             self._packed_control = None
@@ -141,7 +147,7 @@ class Leader:
         """Become the active leader as ``epoch`` (larger than the leader's it takes over
         from), with that leader's weights and last control, not from zero. Followers it
         does not know yet are skipped: their tokens bring them in."""
-        _check_epoch(epoch)
+        check_epoch(epoch)
         self.epoch = epoch
         for follower, weight in weights.items():
             peer = self.table.peers.get(follower)
@@ -286,6 +292,9 @@ class Leader:
         frag, peer = reply.fragment, life.peer
         if frag is not None and frag.count != 1:
             return None  # a fragment of a larger update: its want and ack change
+        if self.site_links.shared(life.request.follower) \
+                and peer.reliability.after(True) != peer.reliability.value:
+            return None  # the answer changes its site's p: the others' indices move too
         fresh_from = now if frag is None else peer.clock.to_leader(frag.generated_at)
         age = max(pick.at - max(peer.policy_tau, fresh_from), 0.0) / self.slot
         i = self.table.index(life.request.follower)
@@ -349,18 +358,9 @@ class Leader:
             self.table.typical_success = duration if typical == 0.0 else \
                 SLOT_EMA * typical + (1.0 - SLOT_EMA) * duration
         cfg = self.config
+        before = peer.reliability.value
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
+        if peer.reliability.value != before:
+            self._events.extend(self.site_links.shared_change(
+                request.follower, before, self.table, cfg.window, now))
 
-
-def _check_epoch(epoch: int) -> None:
-    if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
-        raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")
-
-
-def drain(leader: Leader) -> list[Event]:
-    """Every event ``leader`` has now (``next_event`` until None), for shells that have
-    nothing to overlap with the work it does."""
-    events = []
-    while (event := leader.next_event()) is not None:
-        events.append(event)
-    return events

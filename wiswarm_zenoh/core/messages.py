@@ -162,3 +162,9 @@ def control_fault(control: Control) -> str | None:
         if fault is not None:
             return f"control entry {follower!r}: {fault}"
     return None
+
+
+def check_epoch(epoch: int) -> None:
+    """A leader's epoch must fit the wire (ValueError otherwise)."""
+    if type(epoch) is not int or not 0 <= epoch <= MAX_INT:
+        raise ValueError(f"epoch must be an integer in [0, {MAX_INT}], got {epoch!r}")

@@ -4,8 +4,8 @@ An edge leader polls its site's followers over the shared local channel, one at 
 as any leader. Upstream, each of those followers appears in the parent swarm as a
 follower of its own, ``<site>.<follower>``, served by this process: the cloud leader
 polls these over the wide-area link and schedules over all (site, follower) pairs by
-its own index, with p per pair (the site's link as that pair's polls see it) and A as
-it sees it.
+its own index, with p per site (a site's pairs share its link: ``core.site_links``) and
+A as it sees it.
 
 A cloud poll is answered with the freshest update the edge has delivered from that
 follower (a LIFO of one: an older one is never worth the wide-area link), stamped with
@@ -38,6 +38,13 @@ SetControl = Callable[[str, Sequence[Sequence[float]]], None]
 def upstream_id(site: str, follower: str) -> str:
     """The follower's name in the parent swarm."""
     return f"{check_name(site, 'site name')}.{follower}"
+
+
+def site_of(follower: str) -> str | None:
+    """The site of a follower named ``<site>.<follower>`` (see ``upstream_id``): a
+    leader's followers of one site share its link's p. None for a plain name."""
+    site, dot, _ = follower.partition(".")
+    return site if dot else None
 
 
 class Upstream:

@@ -18,6 +18,7 @@ import zenoh
 
 from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.edge import site_of
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
@@ -66,7 +67,7 @@ class Membership:
             follower, joined = self._changes.popleft()
             if joined:
                 with lock:
-                    leader.add_follower(follower, now)
+                    leader.add_follower(follower, now, link=site_of(follower))
                 self._departed_at.pop(follower, None)
                 if follower not in self.links:
                     self.links[follower] = FollowerLink.open(
