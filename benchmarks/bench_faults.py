@@ -14,7 +14,9 @@ others kept getting from the leader's record:
   update delivered twice;
 - ``sim``: the slotted model with faults (``sim.faults``): the index per unit of expected
   poll time against the paper's, by the weighted mean AoI of the live followers, over K
-  (slots a timeout costs) and the share of dead or intermittent followers (N = 14).
+  (slots a timeout costs) and the share of dead or intermittent followers (N = 14);
+- ``wifi``: the same over the 802.11 model (49 kB frames, N = 14, dead followers' links
+  deliver nothing), K set by the leader's timeout against the poll time it measures.
 
     .venv/bin/python benchmarks/bench_faults.py            # all cases, about 3 minutes
     .venv/bin/python benchmarks/bench_faults.py --stop 2 --cases stop
@@ -31,6 +33,8 @@ from collections import Counter
 from pathlib import Path
 
 from wiswarm_zenoh.sim.faults import FaultSpec, run_faults
+from wiswarm_zenoh.sim.metrics import WifiResult
+from wiswarm_zenoh.sim.scenario import WifiScenario, run_wifi
 from wiswarm_zenoh.testbed.faults import FaultySwarm, first_after, rate
 
 SETTLE = 3.0  # seconds of normal polling before a fault: the baseline window
@@ -125,13 +129,39 @@ def simulated(seeds: int, slots: int) -> None:
         print(f"{k:4.0f}  " + "".join(f"{cell:>24}" for cell in cells))
 
 
+def wifi(seeds: int, duration: float) -> None:
+    print(f"\n802.11 model with dead followers, N = 14, {seeds} seeds x {duration:g} s: mean "
+          "AoI of the live followers (ms), paper's index -> priced index (ratio)")
+    deads = (0, 1, 3)
+    print("  timeout " + "".join(f"{f'{d} dead':>26}" for d in deads))
+    for timeout in (0.05, 0.3, 1.0):
+        cells = []
+        for dead in deads:
+            paper = priced = 0.0
+            for seed in range(seeds):
+                s = WifiScenario(n=14, duration=duration, seed=seed, dead=dead,
+                                 timeout=timeout, price_by_time=False)
+                paper += live_mean_aoi(run_wifi(s), dead) / seeds
+                priced += live_mean_aoi(run_wifi(dataclasses.replace(
+                    s, price_by_time=True)), dead) / seeds
+            cells.append(f"{paper * 1e3:7.0f} -> {priced * 1e3:7.0f} ({priced / paper:4.2f})")
+        print(f"  {timeout * 1e3:5.0f} ms" + "".join(f"{cell:>26}" for cell in cells))
+
+
+def live_mean_aoi(result: WifiResult, dead: int) -> float:
+    live = result.followers[dead:]
+    return sum(f.mean_aoi_s for f in live) / len(live)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stop", type=float, default=5.0, help="seconds a follower is stopped")
-    parser.add_argument("--cases", nargs="+", default=["stop", "router", "kill", "sim"],
-                        choices=["stop", "router", "kill", "sim"])
+    parser.add_argument("--cases", nargs="+", default=["stop", "router", "kill", "sim", "wifi"],
+                        choices=["stop", "router", "kill", "sim", "wifi"])
     parser.add_argument("--seeds", type=int, default=10, help="sim: runs per cell")
     parser.add_argument("--slots", type=int, default=50_000, help="sim: slots per run")
+    parser.add_argument("--wifi-seconds", type=float, default=20.0,
+                        help="wifi: simulated seconds per run")
     args = parser.parse_args()
     if "stop" in args.cases:
         stopped(3, 1, args.stop)
@@ -142,6 +172,8 @@ def main() -> None:
         killed_mid_update()
     if "sim" in args.cases:
         simulated(args.seeds, args.slots)
+    if "wifi" in args.cases:
+        wifi(3, args.wifi_seconds)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""The slotted model with faults: the priced index against the paper's."""
+"""Faults in the simulator (slotted and 802.11 models): the priced index against the paper's."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ from statistics import mean
 import pytest
 
 from wiswarm_zenoh.sim.faults import FaultSpec, run_faults
+from wiswarm_zenoh.sim.scenario import WifiScenario, run_wifi
 
 
 def test_where_a_timeout_costs_one_slot_the_priced_index_is_the_papers() -> None:
@@ -26,3 +27,22 @@ def test_with_dead_followers_and_costly_timeouts_the_priced_index_ages_less() ->
 def test_a_swarm_of_only_dead_followers_is_refused() -> None:
     with pytest.raises(ValueError, match="alive"):
         FaultSpec(n=2, dead=2)
+
+
+def _live_mean_aoi(dead: int, priced: bool) -> float:
+    result = run_wifi(WifiScenario(n=8, duration=8.0, dead=dead, price_by_time=priced))
+    return mean(f.mean_aoi_s for f in result.followers[dead:])
+
+
+def test_over_wifi_a_dead_follower_costs_the_others_less_with_the_priced_index() -> None:
+    """The 802.11 model: a dead follower's link delivers nothing, each of its polls waits
+    out the timeout (0.3 s, some 20 polls' time), which the paper's index ignores."""
+    assert _live_mean_aoi(1, priced=True) < 0.8 * _live_mean_aoi(1, priced=False)
+    # where nothing fails, pricing changes nothing
+    assert _live_mean_aoi(0, priced=True) == pytest.approx(_live_mean_aoi(0, priced=False),
+                                                           rel=0.03)
+
+
+def test_a_wifi_run_with_every_follower_dead_is_refused() -> None:
+    with pytest.raises(ValueError, match="dead"):
+        WifiScenario(n=2, dead=2)

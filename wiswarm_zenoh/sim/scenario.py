@@ -50,6 +50,11 @@ class Workload:
     host_delay: float = DEFAULT_HOST_DELAY
     policy: str = "whittle"
     follower_config: FollowerConfig = field(default_factory=FollowerConfig)
+    # WiSwarm's leader: the index per unit of expected poll time (False: the paper's),
+    # its longest poll timeout, and whether each follower's is learnt below it.
+    price_by_time: bool = True
+    timeout: float = 0.3
+    adaptive_timeout: bool = True
 
     def __post_init__(self) -> None:
         if self.n < 1:
@@ -70,7 +75,11 @@ class Workload:
             )
         if self.fifo_frames is not None and self.fifo_frames < 1:
             raise ValueError(f"fifo_frames must be >= 1, got {self.fifo_frames}")
-        LeaderConfig(policy=self.policy)
+        self.leader_config()
+
+    def leader_config(self) -> LeaderConfig:
+        return LeaderConfig(policy=self.policy, price_by_time=self.price_by_time,
+                            timeout=self.timeout, adaptive_timeout=self.adaptive_timeout)
 
 
 @dataclass(frozen=True)
@@ -79,10 +88,13 @@ class WifiScenario(Workload):
 
     reliability: tuple[float, float] = DEFAULT_RELIABILITY
     params: WifiParams = field(default_factory=WifiParams)
+    dead: int = 0  # followers (the first ones) whose link delivers nothing: p = 0
 
     def __post_init__(self) -> None:
         super().__post_init__()
         check_range("reliability", *self.reliability, 0.0, 1.0)
+        if not 0 <= self.dead < self.n:
+            raise ValueError(f"dead must be in [0, n), got {self.dead}")
 
 
 def start_system(
@@ -97,7 +109,7 @@ def start_system(
     if s.system == "wiswarm":
         net = WiswarmNetwork(
             engine, channel, costs, leader, stations, p, sinks, s.frame_bytes, s.sample_rate,
-            s.host_delay, LeaderConfig(policy=s.policy), s.follower_config,
+            s.host_delay, s.leader_config(), s.follower_config,
         )
         net.start()
         return sinks, net
@@ -136,7 +148,7 @@ def result_of(
 def run_wifi(s: WifiScenario) -> WifiResult:
     """Simulate ``s.duration`` seconds and measure every follower's AoI on ground truth."""
     rng = random.Random(s.seed)
-    p = [rng.uniform(*s.reliability) for _ in range(s.n)]
+    p = [0.0 if i < s.dead else rng.uniform(*s.reliability) for i in range(s.n)]
     engine = Engine(rng.getrandbits(64))
     medium = Medium(engine, s.params)
     leader = medium.station("leader")
