@@ -58,7 +58,7 @@ def test_a_dead_site_link_silences_the_site_and_its_return_revives_it() -> None:
 
 
 def test_a_site_p_leaves_with_its_last_follower_and_is_new_for_the_next() -> None:
-    leader, followers = _cloud()
+    leader, _ = _cloud()
     for follower in ("s1.a", "s1.b"):
         leader.remove_follower(follower)
     leader.add_follower("s1.d", 1.0, link="s1")

@@ -38,6 +38,7 @@ STUDY_REGISTRARS: tuple[str, ...] = (
     "wiswarm_zenoh.cli.sim:register_sweep",
     "wiswarm_zenoh.cli.experiment:register_testbed",
     "apps.tracking.study:register_tracking",
+    "wiswarm_zenoh.cli.edge_cloud:register_edge_cloud",
 )
 
 
