@@ -46,7 +46,7 @@ def test_a_cloud_leader_gets_each_sites_followers_with_their_true_ages(
     upstream = Upstream(edge_session, "cloud", "s1", clock=skewed)
     edge = LeaderNode(edge_session, "site1", clock=skewed, name="edge",
                       on_join=upstream.on_join, on_leave=upstream.on_leave,
-                      on_delivery=upstream.on_delivery)
+                      on_delivery=upstream.on_delivery, on_role=upstream.on_role)
     upstream.set_control = edge.set_control
     try:
         with LeaderNode(sessions.node(port), "cloud", name="cloud",
@@ -65,3 +65,38 @@ def test_a_cloud_leader_gets_each_sites_followers_with_their_true_ages(
         # Each hop's clock estimate errs by up to its round trip's asymmetry: loopback.
         assert abs(event.generated_at - made) < 0.01, event
         assert 0.0 <= event.age < 1.0
+
+
+def _edge(session: zenoh.Session, name: str, epoch: int) -> tuple[LeaderNode, Upstream]:
+    upstream = Upstream(session, "cloud", "s1")
+    edge = LeaderNode(session, "site1", name=name, epoch=epoch, on_join=upstream.on_join,
+                      on_leave=upstream.on_leave, on_delivery=upstream.on_delivery,
+                      on_role=upstream.on_role)
+    upstream.set_control = edge.set_control
+    return edge, upstream
+
+
+def test_only_the_sites_active_edge_leader_serves_the_cloud(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    """A standby edge leader serving the cloud too would answer each of its polls twice."""
+    FollowerNode(sessions.node(port), "site1", "f1", sample_on_poll=_stamped)
+    active_session = sessions.node(port)
+    active, active_up = _edge(active_session, "edge-a", 1)
+    standby, standby_up = _edge(sessions.node(port), "edge-b", 2)
+    try:
+        with LeaderNode(sessions.node(port), "cloud", name="cloud",
+                        **recorder.callbacks()) as cloud:
+            recorder.wait("served by the active edge", lambda r: r.count("s1.f1") >= 20)
+            assert active.active and not standby.active
+            assert active_up.followers == ["s1.f1"] and standby_up.followers == []
+            assert cloud.bad_input.total() == 0  # no second reply to any poll
+            active.close()
+            active_up.close()
+            active_session.close()  # edge-a goes: edge-b takes over, and serves
+            before = recorder.count("s1.f1")
+            recorder.wait("served by the new edge", lambda r: r.count("s1.f1") >= before + 20)
+            assert standby.active and standby_up.followers == ["s1.f1"]
+    finally:
+        standby.close()
+        standby_up.close()

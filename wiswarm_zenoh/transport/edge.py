@@ -50,10 +50,12 @@ def site_of(follower: str) -> str | None:
 class Upstream:
     """This edge's followers as followers of ``parent`` (a swarm), named after ``site``.
 
-    Wire it to the edge's ``LeaderNode``: ``on_join``, ``on_leave`` and ``on_delivery``
-    as its callbacks, and its ``set_control`` as ``set_control`` (then, since the leader
-    is made with these callbacks), which takes the cloud's control. ``clock`` must be
-    the edge leader's: the generation times relayed are on it.
+    Wire it to the edge's ``LeaderNode``: ``on_join``, ``on_leave``, ``on_delivery`` and
+    ``on_role`` as its callbacks, and its ``set_control`` as ``set_control`` (then, since
+    the leader is made with these callbacks), which takes the cloud's control. ``clock``
+    must be the edge leader's: the generation times relayed are on it. It serves the
+    cloud only while its leader is the site's active one: a standby edge leader answering
+    too would give the cloud two replies to each poll.
     """
 
     def __init__(self, session: zenoh.Session, parent: str, site: str,
@@ -67,9 +69,29 @@ class Upstream:
         # polls fragment it as any follower's).
         self._config = config or FollowerConfig(queue="lifo", capacity=1)
         self._lock = threading.Lock()
+        self._members: set[str] = set()  # the site's followers, served or not
+        self._active = False  # the edge leader polls the site: serve the cloud
         self._nodes: dict[str, FollowerNode] = {}
 
     def on_join(self, follower: str) -> None:
+        with self._lock:
+            self._members.add(follower)
+            if not self._active:
+                return
+        self._serve(follower)
+
+    def on_role(self, active: bool) -> None:
+        """The edge leader became the site's active leader, or stood by."""
+        with self._lock:
+            self._active = active
+            members = sorted(self._members)
+        if active:
+            for follower in members:
+                self._serve(follower)
+        else:
+            self._close_nodes()
+
+    def _serve(self, follower: str) -> None:
         def obey(entry: list[Waypoint], follower: str = follower) -> None:
             if self.set_control is not None:
                 self.set_control(follower, entry)
@@ -85,9 +107,10 @@ class Upstream:
 
     def on_leave(self, follower: str) -> None:
         with self._lock:
+            self._members.discard(follower)
             node = self._nodes.pop(follower, None)
         if node is not None:
-            node.close()  # its token goes: the cloud forgets it, its AoI no longer claimed
+            node.close()  # its token goes: the cloud sees it leave, its age grows there
 
     def on_delivery(self, event: Delivered) -> None:
         with self._lock:
@@ -101,8 +124,11 @@ class Upstream:
         with self._lock:
             return [node.follower_id for node in self._nodes.values()]
 
-    def close(self) -> None:
+    def _close_nodes(self) -> None:
         with self._lock:
             nodes, self._nodes = list(self._nodes.values()), {}
         for node in nodes:
             node.close()
+
+    def close(self) -> None:
+        self._close_nodes()

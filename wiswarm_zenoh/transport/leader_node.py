@@ -71,7 +71,8 @@ class LeaderNode:
     """Polls the followers of ``swarm`` until ``close()``.
 
     Callbacks run on the poll thread (keep them short): ``on_delivery`` for every fresh
-    update, ``on_join``/``on_leave`` as liveliness tokens come and go. The control
+    update, ``on_join``/``on_leave`` as liveliness tokens come and go, ``on_role`` (True:
+    active) once the role is decided and whenever it changes. The control
     information is put on ``wiswarm/<swarm>/control`` with the first poll after it
     changes (or a follower joins) and repeated every ``control_period`` seconds;
     ``control_period=0`` puts it with every poll. ``epoch`` (in every poll and control
@@ -96,6 +97,7 @@ class LeaderNode:
         on_delivery: Callable[[Delivered], None] | None = None,
         on_join: Callable[[str], None] | None = None,
         on_leave: Callable[[str], None] | None = None,
+        on_role: Callable[[bool], None] | None = None,
         clock: Callable[[], float] = time.time,
         rng: random.Random | None = None,
         stats_period: float = STATS_PERIOD,
@@ -115,6 +117,7 @@ class LeaderNode:
         self._on_delivery = on_delivery
         self._on_join = on_join
         self._on_leave = on_leave
+        self._on_role = on_role
         self._control_period = control_period
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._lock = threading.Lock()  # the core, between the poll thread and callers
@@ -251,9 +254,11 @@ class LeaderNode:
         if not self._active:
             log.warning("leader %s stands by (an older leader is active: %s)", self.name,
                         self._election.active[1])
-            return
-        self._raise_epoch(take_state=True)
-        log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
+        else:
+            self._raise_epoch(take_state=True)
+            log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
+        if self._on_role is not None:
+            _notify(self._on_role, self._active)
 
     def _raise_epoch(self, take_state: bool) -> None:
         """An epoch above any other leader's, so that followers take this one as theirs:

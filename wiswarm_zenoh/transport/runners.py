@@ -225,6 +225,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_delivery=on_delivery if hand_on else None,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
+                on_role=None if upstream is None else upstream.on_role,
                 control_period=options.control_period, name=options.name)
             if upstream is not None:
                 upstream.set_control = node.set_control
