@@ -50,8 +50,7 @@ def test_reply_after_the_timeout_is_stale_and_lengthens_the_next_timeout() -> No
     # twice the late one, up to the ceiling
     assert poll(leader, 2.0).deadline == pytest.approx(2.0 + min(2 * 0.5, leader.config.timeout))
     again = followers["a"].on_poll(request.payload, 2.1, 2.1)  # the same late reply again
-    assert on_reply(leader, "a", again, 2.2) == [Stale("a", "reply to poll 2, not the one "
-                                                          "in flight")]
+    assert on_reply(leader, "a", again, 2.2) == [Stale("a", "reply to poll 2, not one out")]
 
 
 

@@ -66,7 +66,7 @@ BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 # Flags only some systems take (default None, so that one given shows) and who takes them.
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
                "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
-               "upstream": ("wiswarm",), "site": ("wiswarm",),
+               "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
@@ -166,7 +166,8 @@ def _leader(args: argparse.Namespace) -> int:
     _only_for(args, LEADER_ONLY)
     if args.system != "wiswarm":
         return _receiver(args)
-    config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha"))
+    config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha",
+                                             "in_flight"))
     control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
     if args.site is not None and args.upstream is None:
         raise UsageError("--site names this leader's site in the parent swarm: give the "
@@ -266,6 +267,11 @@ def register(subparsers: Any) -> None:
                         help="wiswarm: the longest wait for a reply, in seconds (each "
                         "follower's timeout adapts to its answers below it; default "
                         f"{defaults.timeout})")
+    leader.add_argument("--in-flight", type=positive_int(64), metavar="K",
+                        help="wiswarm: polls out at once, each to another follower (default "
+                        "1, the paper's rule: right wherever the polls share a radio "
+                        "channel). A cloud leader polling edge leaders over a WAN keeps it "
+                        "busy with about (round trip + one update's time) / that time")
     leader.add_argument("--window", type=positive_int(),
                         help="wiswarm: polls over which each follower's reliability is "
                         f"estimated (default {defaults.window})")

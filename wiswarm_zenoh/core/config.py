@@ -83,6 +83,12 @@ class LeaderConfig:
     gets its own, from its answered polls, at least ``timeout_floor`` (see
     ``poll_timing``). ``price_by_time``: the policy's index is taken per unit of a poll's
     expected time, so that a follower whose polls time out costs what they really cost.
+
+    ``in_flight``: polls out at once, each to a different follower. 1 is the paper's rule
+    and the only right one where the polls share a radio channel. A leader whose polls
+    cross a link that is not shared (a cloud leader polling edge leaders over a WAN,
+    which answer from what they hold) keeps the link busy with a few: about
+    (round trip + one update's time on the link) / that time.
     """
 
     policy: str = "whittle"
@@ -100,6 +106,7 @@ class LeaderConfig:
     adaptive_timeout: bool = True
     timeout_floor: float = 0.01
     price_by_time: bool = True
+    in_flight: int = 1
 
     def __post_init__(self) -> None:
         from wiswarm_zenoh.core.policies import POLICIES
@@ -110,6 +117,8 @@ class LeaderConfig:
             self.timeout,
         )
         _require(self.window >= 1, "window", "an integer >= 1", self.window)
+        _require(type(self.in_flight) is int and self.in_flight >= 1, "in_flight",
+                 "an integer >= 1", self.in_flight)
         _require(0.0 <= self.prior_p <= 1.0, "prior_p", "in [0, 1]", self.prior_p)
         _require(
             math.isfinite(self.probe_interval) and self.probe_interval > 0,

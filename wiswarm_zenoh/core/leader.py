@@ -34,24 +34,22 @@ SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted pol
 
 
 class Leader:
-    """Sans-I/O leader (paper, Section II-D): one poll in flight at a time.
+    """Sans-I/O leader (paper, Section II-D): one poll in flight at a time (or
+    ``config.in_flight``, each to another follower, where the link is not shared).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    ``add_follower``/``remove_follower``/``forget_follower``,
-    ``receive_reply(follower, data, now)`` for
-    every reply, ``handle_timer(now)`` at ``get_timer()``. Output: ``next_poll(now)``
-    (a poll to send, or None while one is out or nobody is here), then ``next_event()``
-    until it returns None. Bad bytes never raise: they come back as ``Rejected`` events
-    and are counted against the follower.
+    membership (``add_/remove_/forget_follower``), ``receive_reply(follower, data, now)``
+    for every reply, ``handle_timer(now)`` at ``get_timer()``. Output: ``next_poll(now)``
+    until None, then ``next_event()`` until None. Bad bytes never raise: they come back
+    as ``Rejected`` events and are counted against the follower.
 
     A valid reply ends its poll at once; the rest of taking it waits in the poll's
-    record (``poll_records``) and is done in arrival order by ``next_event``, after the
-    shell has sent the next poll, or by ``next_poll`` when choosing needs it first. When
-    ``next_event`` has nothing left while a poll is out, the core picks whom to poll
-    after it (``scheduling.pick_after``, ages at the reply's expected time): if the
-    reply then comes as expected and the polled follower's new index (its clock offset
-    as estimated before this reply) does not beat that pick, ``next_poll`` sends it
-    without waiting for the reply's work (``fast_polls`` counts these).
+    record (``poll_records``), done in arrival order by ``next_event`` after the shell
+    sent the next poll, or by ``next_poll`` when choosing needs it first. When
+    ``next_event`` has nothing left while one poll is out, the core picks whom to poll
+    after it (``scheduling.pick_after``, ages at the reply's expected time); if the reply
+    comes as expected and the polled follower's new index (clock offset as before it)
+    does not beat that pick, ``next_poll`` sends it at once (``fast_polls``).
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
@@ -69,7 +67,7 @@ class Leader:
         self._control_seq = 0
         self._waypoints: dict[str, list[Waypoint]] = {}
         self._packed_control: bytes | None = None  # cache of the packed entries
-        self._flight: PollLife | None = None  # the poll out (stage SENT)
+        self._flights: dict[str, PollLife] = {}  # the polls out (stage SENT), by follower
         self._waiting: deque[PollLife] = deque()  # answered polls whose work waits
         self._events: deque[Event] = deque()
         self._pick: Pick | None = None
@@ -88,7 +86,8 @@ class Leader:
 
     @property
     def in_flight(self) -> str | None:
-        return None if self._flight is None else self._flight.request.follower
+        """The follower polled, while a poll is out (the earliest, when several are)."""
+        return next(iter(self._flights), None)
 
     # --- input ---
 
@@ -120,8 +119,7 @@ class Leader:
         peer = self.table.peers.get(follower)
         if peer is None:
             return
-        if self._flight is not None and self._flight.request.follower == follower:
-            self._flight = None
+        self._flights.pop(follower, None)
         self._waiting = deque(life for life in self._waiting
                               if life.request.follower != follower)
         self._pick = None
@@ -179,9 +177,8 @@ class Leader:
         except WireError as exc:
             self._reject(peer, follower, str(exc))
             return
-        life = self._flight
-        if life is None or life.request.follower != follower \
-                or reply.poll_seq != life.request.poll_seq:
+        life = self._flights.get(follower)
+        if life is None or reply.poll_seq != life.request.poll_seq:
             self._not_in_flight(peer, follower, reply, now)
             return
         if reply.follower != follower:
@@ -191,38 +188,42 @@ class Leader:
         if reason is not None:  # not this follower's answer: the poll waits for the real one
             self._reject(peer, follower, reason)
             return
-        self._flight = None
+        del self._flights[follower]
         life.stage, life.reply, life.answered_at = Stage.ANSWERED, reply, now
         self._waiting.append(life)
 
     def handle_timer(self, now: float) -> None:
-        """The poll out is unanswered if its deadline has passed."""
-        life = self._flight
-        if life is None or now < life.request.deadline:
+        """Every poll out whose deadline has passed is unanswered."""
+        expired = [life for life in self._flights.values() if now >= life.request.deadline]
+        if not expired:
             return
-        self._advance(settle=True)  # what came before it is reported before it
-        self._flight = None
-        request, peer = life.request, life.peer
-        peer.timed_out.append((request.poll_seq, request.sent_at))
-        was_silent = peer.silent
-        self._complete(request, peer, answered=False, now=now)
-        peer.timeouts += 1
-        self.table.sync(request.follower)
-        self._events.append(TimedOut(request.follower, request.poll_seq))
-        if peer.silent and not was_silent:
-            peer.silent_since = now
-            self._events.append(Silent(request.follower, self.config.window))
+        self._advance(settle=True)  # what came before them is reported before them
+        for life in sorted(expired, key=lambda life: life.request.deadline):
+            request, peer = life.request, life.peer
+            del self._flights[request.follower]
+            peer.timed_out.append((request.poll_seq, request.sent_at))
+            was_silent = peer.silent
+            self._complete(request, peer, answered=False, now=now)
+            peer.timeouts += 1
+            self.table.sync(request.follower)
+            self._events.append(TimedOut(request.follower, request.poll_seq))
+            if peer.silent and not was_silent:
+                peer.silent_since = now
+                self._events.append(Silent(request.follower, self.config.window))
 
     # --- output ---
 
     def next_poll(self, now: float) -> PollRequest | None:
-        """The poll to send now, put in flight; None while one is out or nobody is here."""
-        if self._flight is not None or not self.table.ids:
+        """The poll to send now, put in flight; None while ``config.in_flight`` are out,
+        or nobody is left to poll."""
+        out = self._flights
+        if len(out) >= self.config.in_flight or len(out) >= len(self.table.ids):
             return None
-        choice = self._quick_choice(now)
+        choice = self._quick_choice(now) if not out else None
         if choice is None:
             self._advance(settle=False)
-            choice = choose(self.table, self.policy, self.slot, now)
+            choice = choose(self.table, self.policy, self.slot, now,
+                            {self.table.index(f) for f in out})
         else:
             self.fast_polls += 1
         return self._start_poll(choice, now)
@@ -234,8 +235,9 @@ class Leader:
             self._advance(settle=True)
         if self._events:
             return self._events.popleft()
-        life = self._flight
-        if life is not None and self._picked_for != life.request.poll_seq:
+        life = next(iter(self._flights.values())) if len(self._flights) == 1 else None
+        if life is not None and self.config.in_flight == 1 \
+                and self._picked_for != life.request.poll_seq:
             self._picked_for = life.request.poll_seq
             self._pick = pick_after(self.table, self.policy, self.slot, life.request.poll_seq,
                                     self.table.index(life.request.follower),
@@ -243,16 +245,17 @@ class Leader:
         return None
 
     def get_timer(self) -> float | None:
-        """When ``handle_timer`` is due: the deadline of the poll out, if any."""
-        return None if self._flight is None else self._flight.request.deadline
+        """When ``handle_timer`` is due: the earliest deadline of the polls out, if any."""
+        if not self._flights:
+            return None
+        return min(life.request.deadline for life in self._flights.values())
 
     def stats(self, follower: str, now: float) -> FollowerStats:
         """One follower's figures, every reply so far taken (their events wait); for one
         that left, its figures as they stand now (``present`` False, its age growing)."""
         self._advance(settle=True)
-        gone = self._departed.get(follower)
-        if gone is not None:
-            return gone.stats(follower, now, present=False)
+        if follower in self._departed:
+            return self._departed[follower].stats(follower, now, present=False)
         return self._peer(follower).stats(follower, now)
 
     # --- inside ---
@@ -273,8 +276,7 @@ class Leader:
         peer.stale += 1
         sent_at = peer.late(reply.poll_seq) if reply.follower == follower else None
         if sent_at is None:
-            self._events.append(Stale(follower, f"reply to poll {reply.poll_seq}, "
-                                                "not the one in flight"))
+            self._events.append(Stale(follower, f"reply to poll {reply.poll_seq}, not one out"))
             return
         peer.timing.answered(now - sent_at)
         self.table.sync(follower)
@@ -318,7 +320,7 @@ class Leader:
             follower, self._poll_seq, encode_poll(poll), now + peer.timing.timeout, now,
             self._control_seq, self._packed_control, self.epoch,
         )
-        self._flight = PollLife(request, peer)
+        self._flights[follower] = PollLife(request, peer)
         return request
 
     def _advance(self, settle: bool) -> None:

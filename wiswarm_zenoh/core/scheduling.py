@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 
@@ -13,9 +13,13 @@ from wiswarm_zenoh.core.policies import IndexPolicy, Policy
 from wiswarm_zenoh.core.poll_records import Pick
 
 
-def choose(table: PeerTable, policy: Policy, slot: float, now: float) -> int:
+def choose(table: PeerTable, policy: Policy, slot: float, now: float,
+           busy: Collection[int] = ()) -> int:
     """The policy's pick among followers that answer; a silent one only when its probe
-    is due (or when every follower is silent)."""
+    is due (or when every follower is silent). ``busy``: followers with a poll out
+    already (a leader keeping several out), left out; not all of them."""
+    if busy:
+        return _choose_among(table, policy, slot, now, busy)
     if not table.silent:
         return pick(table, policy, slot, now, None)
     due = table.first_probe()
@@ -23,6 +27,19 @@ def choose(table: PeerTable, policy: Policy, slot: float, now: float) -> int:
         return due
     live = table.live()
     return int(live[pick(table, policy, slot, now, live)])
+
+
+def _choose_among(table: PeerTable, policy: Policy, slot: float, now: float,
+                  busy: Collection[int]) -> int:
+    """``choose`` among the followers not in ``busy``."""
+    free = [i for i in range(len(table)) if i not in busy]
+    silent = [i for i in free if table.p[i] <= 0.0]
+    if silent:
+        due = min(silent, key=table.probe_at.__getitem__)
+        if table.probe_at[due] <= now or len(silent) == len(free):
+            return due
+    live = [i for i in free if table.p[i] > 0.0]
+    return live[pick(table, policy, slot, now, live)]
 
 
 def pick(table: PeerTable, policy: Policy, slot: float, now: float,

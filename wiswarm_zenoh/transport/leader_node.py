@@ -276,12 +276,15 @@ class LeaderNode:
         self._handover.own_epoch = epoch
 
     def _poll(self, now: float) -> None:
-        """Send the next poll if the core has one (with the control information, when
-        due), then hand on what the core has to say, while that poll is on its way."""
-        with self._lock:
-            request = self._leader.next_poll(now)
-            version = self._control_version
-        if request is not None:
+        """Send the polls the core has (one, or up to ``in_flight``), with the control
+        information when due, then hand on what the core has to say while they are on
+        their way."""
+        while True:
+            with self._lock:
+                request = self._leader.next_poll(now)
+                version = self._control_version
+            if request is None:
+                break
             sent_version, sent_at = self._control_sent
             if version != sent_version or now - sent_at >= self._control_period:
                 self._control.put(request.control)
