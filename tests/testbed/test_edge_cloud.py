@@ -41,7 +41,7 @@ def test_a_short_run_delivers_every_pair_with_ages_added_across_the_wan(
     out = tmp_path / "ec"
     code = cli.main(["experiment", "edge-cloud", "--sites", "2", "--followers", "2",
                      "--wan", "50mbit", "--delay", "20ms", "--duration", "2", "--warmup",
-                     "1", "--cloud-leaders", "2", "--out", str(out)])
+                     "1", "--in-flight", "2", "--out", str(out)])
     printed = capsys.readouterr().out
     assert code == 0, printed
     assert not _mine(), "the topology was not torn down"

@@ -34,17 +34,17 @@ def test_the_default_plan_runs_one_leader_enough_to_fill_the_wan_and_one_per_pai
     config = EdgeCloudConfig()
     s_wan = config.frame_time(50_000_000)
     assert s_wan == pytest.approx(224 * 224 * 8 * 1.04 / 50e6)
-    assert config.wan_leaders() == math.ceil((0.04 + s_wan) / s_wan) == 6
+    assert config.wan_in_flight() == math.ceil((0.04 + s_wan) / s_wan) == 6
     assert [s.label for s in config.setups()] == [
         "direct", "hierarchy x1", "hierarchy x6", "hierarchy x12", "edge alone"]
     assert [s.in_flight for s in config.setups()] == [1, 1, 6, 12, 0]
-    assert EdgeCloudConfig(cloud_leaders=(3,)).setups()[1] == Setup("hierarchy", 3)
-    assert EdgeCloudConfig(sites=1, followers=2).wan_leaders() == 2  # at most a pair each
+    assert EdgeCloudConfig(in_flight=(3,)).setups()[1] == Setup("hierarchy", 3)
+    assert EdgeCloudConfig(sites=1, followers=2).wan_in_flight() == 2  # at most one per pair
 
 
 @pytest.mark.parametrize(("kwargs", "field"), [
     ({"sites": 0}, "sites"), ({"followers": 101}, "followers"),
-    ({"cloud_leaders": (13,)}, "cloud_leaders"), ({"duration": math.nan}, "duration"),
+    ({"in_flight": (13,)}, "in_flight"), ({"duration": math.nan}, "duration"),
     ({"warmup": 0.0}, "warmup"), ({"frame_bytes": 8}, "frame_bytes"),
 ])
 def test_a_config_names_the_field_it_rejects(kwargs: dict[str, object], field: str) -> None:
@@ -65,7 +65,7 @@ def test_a_bad_combination_of_flags_is_one_line_naming_the_flag_before_anything_
         raise AssertionError("the testbed was reached")
 
     monkeypatch.setattr("wiswarm_zenoh.options.testbed.check_available", never)
-    for flags, flag in ((["--cloud-leaders", "1,13"], "--cloud-leaders"),
+    for flags, flag in ((["--in-flight", "1,13"], "--in-flight"),
                         (["--frame-bytes", "8"], "--frame-bytes"),
                         (["--delay", "11s"], "--delay")):
         assert cli.main(["experiment", "edge-cloud", *flags]) == 2

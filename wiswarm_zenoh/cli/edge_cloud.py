@@ -33,7 +33,7 @@ from wiswarm_zenoh.transport.frames import FRAME_BYTES
 from wiswarm_zenoh.units import format_rate
 
 # The fields a config names in its errors, as the flags the user wrote.
-FLAGS = {"rate_bps": "--wan", "delay_s": "--delay", "cloud_leaders": "--cloud-leaders",
+FLAGS = {"rate_bps": "--wan", "delay_s": "--delay", "in_flight": "--in-flight",
          "frame_bytes": "--frame-bytes"}
 
 
@@ -49,7 +49,7 @@ def edge_cloud_config(args: argparse.Namespace) -> EdgeCloudConfig:
         wan = WanSpec(rate_bps=args.wan, delay_s=args.delay)
         return EdgeCloudConfig(
             sites=args.sites, followers=args.followers, local=local, wan=wan,
-            cloud_leaders=args.cloud_leaders, duration=args.duration, warmup=args.warmup,
+            in_flight=args.in_flight, duration=args.duration, warmup=args.warmup,
             frame_bytes=args.frame_bytes)
     except ValueError as exc:
         raise _flag_error(exc) from None
@@ -80,7 +80,7 @@ def register_edge_cloud(studies: Any) -> None:
         description="Sites, each a shared channel with its router, joined to a cloud "
         "router by WAN links (tc tbf each way, a relay for the one-way delay); compares "
         "the cloud polling every follower directly, the hierarchy (edge leaders with "
-        "--upstream, cloud leaders on the parent swarms), and the edge leaders alone. "
+        "--upstream, the cloud leader on the parent swarm), and the edge leaders alone. "
         "Writes pairs.csv, summary.csv, aoi.png and report.md (Linux, root).")
     parser.add_argument("--sites", type=positive_int(MAX_SITES), default=2,
                         help="sites, each a channel and an edge leader (default 2)")
@@ -90,9 +90,9 @@ def register_edge_cloud(studies: Any) -> None:
                         help="the WAN links' rate each way, e.g. 50mbit (default 50mbit)")
     parser.add_argument("--delay", type=TIME, default=0.02, metavar="TIME",
                         help="the WAN's one-way delay, e.g. 20ms (default 20ms)")
-    parser.add_argument("--cloud-leaders", type=COUNTS, metavar="K,K",
-                        help="hierarchies to run, by their number of cloud leaders (= polls "
-                        "in flight on the WAN), e.g. 1,6 (default: 1, the number that keeps the "
+    parser.add_argument("--in-flight", type=COUNTS, metavar="K,K",
+                        help="hierarchies to run, by the polls the cloud leader keeps in "
+                        "flight on the WAN, e.g. 1,6 (default: 1, the number that keeps the "
                         "WAN busy, (2 delay + frame time) / frame time, and one per pair)")
     parser.add_argument("--duration", type=positive_float(), default=15.0,
                         help="seconds measured per setup (default 15)")

@@ -2,12 +2,10 @@
 WAN's relay hops, and leaders as the experiment needs them.
 
 ``run_leaders`` runs one ``LeaderNode`` per swarm on one session. An edge runs one (its
-site's swarm) and hands deliveries upstream, as ``wiswarm leader --upstream`` does, but
-it may split its followers over several parent swarms: each parent swarm has a cloud
-leader of its own, and each cloud leader keeps one poll in flight, so K parent swarms
-are K polls in flight on the WAN without any change to the leader. The process says it
-is ready once every follower it expects has been delivered: a run's warm-up then starts
-from a swarm that works end to end, with no guessed sleep.
+site's swarm) and hands deliveries upstream, as ``wiswarm leader --upstream`` does; the
+cloud leader keeps ``in_flight`` polls out (``wiswarm leader --in-flight``). The process
+says it is ready once every follower it expects has been delivered: a run's warm-up
+then starts from a swarm that works end to end, with no guessed sleep.
 """
 
 from __future__ import annotations
@@ -19,7 +17,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from wiswarm_zenoh.core import Delivered
+from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.testbed.edge_cloud_topology import RelaySpec
 from wiswarm_zenoh.testbed.relay import DelayRelay
 from wiswarm_zenoh.transport.edge import Upstream
@@ -68,6 +66,7 @@ class LeadersOptions:
     parents: tuple[tuple[str, str], ...] = ()
     site: str | None = None
     name: str = "leader"
+    in_flight: int = 1
 
     def __post_init__(self) -> None:
         if self.parents and (len(self.swarms) != 1 or self.site is None):
@@ -131,9 +130,15 @@ def run_leaders(spec: SessionSpec, options: LeadersOptions, stop: StopSignal,
                 if upstream is not None:
                     upstream.on_leave(follower)
 
+            def on_role(active: bool) -> None:
+                for upstream in upstreams.values():
+                    upstream.on_role(active)
+
+            config = LeaderConfig(in_flight=options.in_flight)
             nodes = [stack.enter_context(LeaderNode(
-                session, swarm, on_delivery=on_delivery, on_join=on_join, on_leave=on_leave,
-                name=f"{options.name}-{i}")) for i, swarm in enumerate(options.swarms)]
+                session, swarm, config, on_delivery=on_delivery, on_join=on_join,
+                on_leave=on_leave, on_role=on_role, name=f"{options.name}-{i}"))
+                for i, swarm in enumerate(options.swarms)]
             for upstream in upstreams.values():
                 upstream.set_control = nodes[0].set_control
             started = time.monotonic()

@@ -12,7 +12,7 @@ S_wan old when it lands, and comes again M S_wan later). So
 the edge's AoI measured by the edges alone (the local floor). It assumes a WAN kept
 busy: one poll in flight leaves it idle for each round trip, and its floor is then
 (edge) + d + S_wan + M (2d + S_wan) / 2; K = (2d + S_wan) / S_wan polls in flight close
-that gap (``EdgeCloudConfig.wan_leaders``).
+that gap (``EdgeCloudConfig.wan_in_flight``).
 """
 
 from __future__ import annotations
@@ -221,8 +221,8 @@ def report(results: EdgeCloudResults) -> str:
         f"{status}Each setup: {config.warmup:g} s warm-up (from the moment every pair was "
         f"delivered), then {config.duration:g} s measured; {config.frame_bytes} B frames at "
         "100 fps into LIFO queues. AoI from the capture time every frame carries (one host "
-        "clock), at the cloud (edge alone: at the edge). Polls in flight on the WAN = "
-        "cloud leaders, each of its own parent swarm (pair p to leader p mod K).",
+        "clock), at the cloud (edge alone: at the edge). Polls in flight on the WAN: the "
+        "cloud leader's --in-flight.",
         "",
         *derivation,
         "",

@@ -4,10 +4,9 @@
   flight (a swarm has one leader today): every poll pays the WAN's round trip and the
   site's channel.
 - ``hierarchy xK``: each site's edge leader polls its followers over the channel (one
-  at a time, as the paper), and K cloud leaders poll the (site, follower) pairs from
-  the edges, pair p (sites interleaved) by leader p mod K. K = 1 is the hierarchy as
-  ``wiswarm leader --upstream cloud`` builds it; K > 1 keeps K polls in flight on the
-  WAN, which is no shared radio channel (see ``edge_cloud_nodes``).
+  at a time, as the paper), and the cloud leader polls the (site, follower) pairs from
+  the edges with K polls in flight (``wiswarm leader --in-flight K``): the WAN is no
+  shared radio channel, and K = 1 leaves it idle while each poll crosses it and back.
 - ``edge alone``: the edge leaders without a cloud: the local floor.
 
 Each setup gets swarms of its own names and fresh processes; routers and relays stay up
@@ -59,25 +58,25 @@ FOLLOWERS, EDGES, CLOUD = range(3)  # layers of a setup's processes, started in 
 
 @dataclass(frozen=True)
 class Setup:
-    """One way of polling: ``direct``, ``hierarchy`` (with ``leaders`` cloud leaders)
-    or ``edge`` (no cloud)."""
+    """One way of polling: ``direct``, ``hierarchy`` (the cloud leader keeping ``k``
+    polls in flight) or ``edge`` (no cloud)."""
 
     kind: str
-    leaders: int = 1
+    k: int = 1
 
     @property
     def label(self) -> str:
         return {"direct": "direct", "edge": "edge alone"}.get(
-            self.kind, f"hierarchy x{self.leaders}")
+            self.kind, f"hierarchy x{self.k}")
 
     @property
     def tag(self) -> str:
-        return {"direct": "d", "edge": "e"}.get(self.kind, f"h{self.leaders}")
+        return {"direct": "d", "edge": "e"}.get(self.kind, f"h{self.k}")
 
     @property
     def in_flight(self) -> int:
-        """Polls in flight on the WAN (the number of cloud leaders)."""
-        return 0 if self.kind == "edge" else self.leaders
+        """Polls in flight on the WAN."""
+        return 0 if self.kind == "edge" else self.k
 
 
 @dataclass(frozen=True)
@@ -88,7 +87,7 @@ class EdgeCloudConfig:
     followers: int = 6
     local: ChannelSpec = field(default_factory=ChannelSpec)
     wan: WanSpec = field(default_factory=WanSpec)
-    cloud_leaders: tuple[int, ...] | None = None  # None: 1, wan_leaders() and pairs
+    in_flight: tuple[int, ...] | None = None  # None: 1, wan_in_flight() and pairs
     duration: float = 15.0
     warmup: float = 5.0
     frame_bytes: int = FRAME_BYTES
@@ -106,9 +105,9 @@ class EdgeCloudConfig:
         if self.frame_bytes < FRAME_HEADER_BYTES:
             raise ValueError(f"frame_bytes must be >= {FRAME_HEADER_BYTES} (the frame's "
                              f"counter and capture time), got {self.frame_bytes}")
-        bad = [k for k in self.cloud_leaders or () if not 1 <= k <= self.pairs]
+        bad = [k for k in self.in_flight or () if not 1 <= k <= self.pairs]
         if bad:
-            raise ValueError(f"cloud_leaders must each be in [1, {self.pairs}] (one per "
+            raise ValueError(f"in_flight must each be in [1, {self.pairs}] (one per "
                              f"(site, follower) pair at most), got {bad[0]}")
 
     @property
@@ -120,16 +119,15 @@ class EdgeCloudConfig:
         """One frame's time on a link of ``rate_bps``, headers included."""
         return self.frame_bytes * 8 * FRAME_OVERHEAD / rate_bps
 
-    def wan_leaders(self) -> int:
-        """Polls in flight that keep the WAN busy: a poll holds a leader for a round
-        trip (2d + one frame's time on the WAN), the WAN is busy for the frame's time."""
+    def wan_in_flight(self) -> int:
+        """Polls in flight that keep the WAN busy: a poll is out for a round trip
+        (2d + one frame's time on the WAN), the WAN is busy for the frame's time."""
         s_wan = self.frame_time(self.wan.rate_bps)
         return min(self.pairs, math.ceil((2 * self.wan.delay_s + s_wan) / s_wan))
 
     def setups(self) -> list[Setup]:
-        leaders = self.cloud_leaders or tuple(dict.fromkeys((1, self.wan_leaders(),
-                                                             self.pairs)))
-        return [Setup("direct"), *(Setup("hierarchy", k) for k in leaders), Setup("edge")]
+        ks = self.in_flight or tuple(dict.fromkeys((1, self.wan_in_flight(), self.pairs)))
+        return [Setup("direct"), *(Setup("hierarchy", k) for k in ks), Setup("edge")]
 
     @property
     def ids(self) -> list[str]:
@@ -137,7 +135,7 @@ class EdgeCloudConfig:
         return [f"uav{i}" for i in range(self.followers)]
 
     def pair_names(self, sites: list[Site]) -> list[str]:
-        """``<site>.<follower>``, sites interleaved: pair p goes to cloud leader p mod K."""
+        """``<site>.<follower>``, sites interleaved."""
         return [f"{s.name}.uav{i}" for i in range(self.followers) for s in sites]
 
 
@@ -205,7 +203,7 @@ class _Layers:
 
 
 def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
-                records: Path, leader_of: dict[str, int]) -> None:
+                records: Path) -> None:
     """The site's followers and, but for ``direct``, its edge leader."""
     swarm, cloud = _swarms(setup, site)
     ids = config.ids
@@ -217,7 +215,7 @@ def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Si
     if setup.kind == "direct":
         return
     parents = () if setup.kind == "edge" else tuple(
-        (f, f"{cloud}{leader_of[f'{site.name}.{f}']}") for f in ids)
+        (f, cloud) for f in ids)
     edge = LeadersOptions((swarm,), str(records / f"{setup.tag}-edge-{site.name}.csv"),
                           expect=tuple(f"{site.name}.{f}" for f in ids),
                           prefix=f"{site.name}.", parents=parents, site=site.name,
@@ -231,15 +229,13 @@ def _start(layers: _Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setu
     """Followers, edge leaders and cloud leaders of ``setup``, ready once every pair has
     been delivered where it is measured; returns the pair names."""
     pairs = config.pair_names(net.sites)
-    leader_of = {pair: p % setup.leaders for p, pair in enumerate(pairs)}
     for site in net.sites:
-        _start_site(layers, config, setup, site, records, leader_of)
+        _start_site(layers, config, setup, site, records)
     if setup.kind != "edge":
         swarm, cloud = _swarms(setup, net.sites[0])
-        swarms = (swarm,) if setup.kind == "direct" else tuple(
-            f"{cloud}{k}" for k in range(setup.leaders))
-        leaders = LeadersOptions(swarms, str(records / f"{setup.tag}-cloud.csv"),
-                                 expect=tuple(pairs), name="cloud")
+        leaders = LeadersOptions((swarm if setup.kind == "direct" else cloud,),
+                                 str(records / f"{setup.tag}-cloud.csv"),
+                                 expect=tuple(pairs), name="cloud", in_flight=setup.k)
         layers.start(CLOUD, "cloud", run_in, net.cloud_ns, run_leaders,
                      client_of_local_router(), leaders)
     layers.wait_ready()
