@@ -19,6 +19,7 @@ from apps.tracking.uav_app import SYSTEMS
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
 from wiswarm_zenoh.core import POLICIES
+from wiswarm_zenoh.dashboard import DEFAULT_PORT
 from wiswarm_zenoh.options import (
     RATE,
     SEED,
@@ -66,6 +67,10 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--channel-queue", type=TIME, default=0.2,
                         metavar="TIME", help="the channel's queue (tbf latency, default 200ms)")
     parser.add_argument("--no-live", action="store_true", help="no live table")
+    parser.add_argument("--no-dashboard", action="store_true",
+                        help="no live web page (by default the demo serves the dashboard "
+                        f"on port {DEFAULT_PORT}, or a free one, and prints its URL; not "
+                        "with --channel, where it would listen inside a namespace)")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
 
 
@@ -88,6 +93,7 @@ def options_from(args: argparse.Namespace) -> demo.DemoOptions:
             rate_hz=args.rate, frame_px=args.frame_size, vehicle=args.vehicle,
             motion=args.motion, mode=args.mode, policy=args.policy, warmup_s=args.warmup,
             live=not args.no_live, channel=channel,
+            dashboard_port=None if args.no_dashboard or channel is not None else DEFAULT_PORT,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None

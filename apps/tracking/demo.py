@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import math
 import multiprocessing
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -36,6 +37,7 @@ from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResul
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
+from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
 from wiswarm_zenoh.transport import (
     Children,
@@ -74,6 +76,7 @@ class DemoOptions:
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
+    dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -97,6 +100,9 @@ class DemoOptions:
             raise ValueError(f"policy must be one of {sorted(POLICIES)}, got {self.policy!r}")
         if not (math.isfinite(self.warmup_s) and 0.5 <= self.warmup_s <= 60):
             raise ValueError(f"warm-up must be in [0.5, 60] s, got {self.warmup_s!r}")
+        if self.dashboard_port is not None and self.channel is not None:
+            raise ValueError("the dashboard cannot run with --channel: its page would listen "
+                             "inside the leader's network namespace (add --no-dashboard)")
         self.world_config()  # the world must fit the UAVs' cars
 
     @property
@@ -224,6 +230,8 @@ def run(options: DemoOptions) -> DemoRun:
         stack.callback(vision.stop)
         board = TrackingBoard(session, SWARM)
         stack.callback(board.close)
+        if options.dashboard_port is not None:
+            stack.callback(_dashboard(session, options).close)
 
         epoch = time.time() + options.warmup_s
         end = epoch + options.duration_s
@@ -253,6 +261,20 @@ def run(options: DemoOptions) -> DemoRun:
         uav_results = _collect(links, children)
     return DemoRun(options, epoch, measured, aoi, stats, vision.busy_s, reception.rows(),
                    uav_results, polls)
+
+
+def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
+    """The live page of the demo's swarm, on another port if the one asked for is taken
+    (another dashboard runs); its address on stderr."""
+    assert options.dashboard_port is not None
+    try:
+        page = Dashboard(session, SWARM, options.dashboard_port)
+    except OSError as exc:
+        log.warning("port %d: %s; the dashboard takes a free one", options.dashboard_port,
+                    exc.strerror or exc)
+        page = Dashboard(session, SWARM, 0)
+    print(f"dashboard: {page.url} (live while the demo runs)", file=sys.stderr, flush=True)
+    return page
 
 
 def _collect(links: dict[str, UavLink], children: Children) -> dict[str, UavResult]:

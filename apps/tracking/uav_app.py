@@ -37,16 +37,18 @@ from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_veh
 from apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
 from wiswarm_zenoh.core import FollowerConfig, Waypoint
-from wiswarm_zenoh.transport import FollowerNode, SessionSpec, SwarmKeys
-from wiswarm_zenoh.transport.badinput import BadInputLog
-from wiswarm_zenoh.transport.control import ControlListener
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.transport import (
     SUPERVISION_PERIOD,
+    BadInputLog,
+    ControlListener,
+    FollowerNode,
     ReadySignal,
+    SessionSpec,
     StopSignal,
+    SwarmKeys,
+    Ticker,
     wait_until_stopped,
 )
-from wiswarm_zenoh.transport.ticker import Ticker
 
 log = logging.getLogger(__name__)
 
@@ -234,10 +236,16 @@ class UavRuntime:
                                                                    now - self.epoch))
 
     def publish_stats(self) -> None:
-        """The live table's row for this UAV (JSON on the tracking key)."""
+        """The live table's row and the dashboard's map entry for this UAV (JSON on the
+        tracking key). Besides the row's fields: ``t`` (now, UAV clock), ``arena``
+        ([width, height]), ``car`` (its index), ``car_x``/``car_y`` (its true place),
+        ``x``/``y``/``z``/``yaw`` (the UAV's pose; absent while a MAVLink link is down),
+        ``footprint`` (the ground corners of the camera frame) and ``waypoints`` (the plan
+        flown, [t, x, y, z], t in the UAV's clock). Metres and radians, world frame."""
         samples = self.metrics.samples
         record: dict[str, object] = {"uav": self.options.uav, "frames": self.frames,
-                                     "rejected_waypoints": self.vehicle.guard.rejected}
+                                     "rejected_waypoints": self.vehicle.guard.rejected,
+                                     **self._whereabouts(time.time())}
         if samples:
             last, summary = samples[-1], self.metrics.summary()
             record.update(error_m=last.error_m, in_view=last.in_view,
@@ -245,6 +253,23 @@ class UavRuntime:
                           mean_error_m=summary.mean_tracking_error_m,
                           in_view_share=summary.in_view_share)
         self._publisher.put(json.dumps(record, separators=(",", ":")))
+
+    def _whereabouts(self, now: float) -> dict[str, object]:
+        """Where the UAV, its car, its camera's footprint and its plan are at ``now``:
+        what only this process knows at every instant, for a map of the arena."""
+        arena, camera = self.world.arena, self.options.camera
+        car_x, car_y = self.world.car_position(self.options.car, now - self.epoch)
+        record: dict[str, object] = {
+            "t": now, "arena": [arena.width_m, arena.height_m], "car": self.options.car,
+            "car_x": car_x, "car_y": car_y,
+            "waypoints": [list(waypoint) for waypoint in self.vehicle.guard.plan]}
+        pose = self.vehicle.pose_at(now)
+        if pose is not None:  # None while a MAVLink link is down
+            right, bottom = camera.width - 0.5, camera.height - 0.5
+            record.update(x=pose.x, y=pose.y, z=pose.z, yaw=pose.yaw, footprint=[
+                list(camera.pixel_to_world(pose, u, v))
+                for u, v in ((-0.5, -0.5), (right, -0.5), (right, bottom), (-0.5, bottom))])
+        return record
 
     def close(self) -> None:
         self._stack.close()

@@ -14,19 +14,23 @@ import time
 from pathlib import Path
 from typing import Any
 
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, study_by_n
+from wiswarm_zenoh.options import (
     COUNTS,
+    OneLineParser,
+    ProgressBar,
+    UsageError,
+    add_channel_arguments,
     add_rate_grid,
+    channel_spec,
     finite_float,
     listed,
     one_of,
     positive_float,
     positive_int,
+    require_testbed,
     writable_dir,
 )
-from wiswarm_zenoh.cli.sim import ProgressBar
-from wiswarm_zenoh.options import add_channel_arguments, channel_spec, require_testbed
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
 from wiswarm_zenoh.sim.sweep import PAPER_NS
 from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.testbed.study_report import write_study
@@ -74,7 +78,11 @@ def _testbed(args: argparse.Namespace) -> int:
           f"{format_rate(ch.down_bps)} down, {ch.queue_s * 1e3:g} ms queue; N in "
           f"{', '.join(map(str, config.ns))}; about {config.estimated_runs} runs of "
           f"{config.warmup + config.duration:g} s; output in {out}", file=sys.stderr)
-    results = run_study(config, out / "records", ProgressBar("testbed"))
+    bar = ProgressBar("testbed")
+    with open_live(args, out, "testbed", config.baselines, config.fixed_rate) as live:
+        results = run_study(config, out / "records", bar) if live is None else study_by_n(
+            config, lambda part, progress: run_study(part, out / "records", progress), bar,
+            live)
     files = write_study(out, config, results)
     for path in files:
         print(path)
@@ -110,4 +118,5 @@ def register_testbed(studies: Any) -> None:
     testbed.add_argument("--out", type=writable_dir(), metavar="DIR",
                          help="output directory (runs/testbed-<timestamp>)")
     add_channel_arguments(testbed)
+    add_live_arguments(testbed)
     testbed.set_defaults(func=_testbed)

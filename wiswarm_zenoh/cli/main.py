@@ -13,7 +13,7 @@ import logging
 import sys
 from collections.abc import Sequence
 
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
+from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
 # Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
@@ -24,6 +24,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "wiswarm_zenoh.cli.testbed",
     "wiswarm_zenoh.cli.experiment",
     "wiswarm_zenoh.cli.security",
+    "wiswarm_zenoh.cli.dashboard",
     "apps.tracking.cli",
 )
 

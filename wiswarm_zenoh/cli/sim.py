@@ -5,25 +5,27 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from wiswarm_zenoh.cli.arguments import (
+from wiswarm_zenoh.core.policies import POLICIES
+from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, sweep_by_n
+from wiswarm_zenoh.options import (
     COUNTS,
     PROBABILITIES,
     RATE,
     SEED,
     TIME,
+    OneLineParser,
+    ProgressBar,
+    UsageError,
     add_rate_grid,
     float_range,
     positive_float,
     positive_int,
     writable_dir,
 )
-from wiswarm_zenoh.cli.usage import OneLineParser, UsageError
-from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.sim.link import LinkParams, LinkScenario, run_link
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.report import write_report
@@ -35,6 +37,7 @@ from wiswarm_zenoh.sim.scenario import (
     run_wifi,
 )
 from wiswarm_zenoh.sim.slotted import DEFAULT_SLOTS, SlottedSpec, run_slotted
+from wiswarm_zenoh.sim.sweep import BASELINES as SWEEP_BASELINES
 from wiswarm_zenoh.sim.sweep import PAPER_NS, SweepConfig, run_sweep, summarise
 from wiswarm_zenoh.units import format_rate
 
@@ -106,23 +109,6 @@ def _link(args: argparse.Namespace) -> int:
     return _show(run_link(scenario), args.json)
 
 
-class ProgressBar:
-    """``[#####-----] done/total  elapsed`` on stderr, redrawn in place."""
-
-    def __init__(self, label: str, width: int = 30) -> None:
-        self.label = label
-        self.width = width
-        self.started = time.monotonic()
-
-    def __call__(self, done: int, total: int) -> None:
-        filled = self.width * done // max(total, 1)
-        elapsed = time.monotonic() - self.started
-        bar = "#" * filled + "-" * (self.width - filled)
-        end = "\n" if done >= total else ""
-        print(f"\r{self.label} [{bar}] {done}/{total} runs {elapsed:6.0f} s", end=end,
-              file=sys.stderr, flush=True)
-
-
 def _sweep(args: argparse.Namespace) -> int:
     config = _build(
         SweepConfig, ns=args.ns, rates=args.rates,
@@ -130,7 +116,10 @@ def _sweep(args: argparse.Namespace) -> int:
         seed=args.seed, frame_bytes=args.frame_bytes,
     )
     out = args.out or Path("runs") / time.strftime("sweep-%Y%m%d-%H%M%S")
-    results = run_sweep(config, args.jobs, ProgressBar("sweep"))
+    bar = ProgressBar("sweep")
+    with open_live(args, out, "sweep", SWEEP_BASELINES, config.fixed_rate) as live:
+        results = run_sweep(config, args.jobs, bar) if live is None else sweep_by_n(
+            config, lambda part, progress: run_sweep(part, args.jobs, progress), bar, live)
     files = write_report(out, config, results, summarise(config, results))
     for path in files:
         print(path)
@@ -219,4 +208,5 @@ def register_sweep(studies: Any) -> None:
                        help="parallel worker processes (default: one per core)")
     sweep.add_argument("--out", type=writable_dir(), metavar="DIR",
                        help="output directory (runs/sweep-<timestamp>)")
+    add_live_arguments(sweep)
     sweep.set_defaults(func=_sweep)

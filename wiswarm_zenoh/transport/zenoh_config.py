@@ -1,5 +1,5 @@
 """Zenoh configuration from the command line, with the flags of zenoh-python's examples
-(``wiswarm_zenoh.cli.arguments.add_zenoh_arguments``).
+(``wiswarm_zenoh.options.add_zenoh_arguments``).
 
 Every problem (a bad endpoint, an unknown ``--cfg`` key, an unreadable ``-c`` file, a
 session that cannot open) becomes one ``UsageError`` line: the user must fix a flag.

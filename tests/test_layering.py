@@ -1,0 +1,66 @@
+"""Layers: nothing in the middleware imports the CLI above it; applications use only what
+the middleware's packages export (never a module inside them); tests use no private
+names. Read from the sources, so a new import anywhere is judged."""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGE = ROOT / "wiswarm_zenoh"
+# What an application may import from: the middleware's packages, by what they export
+# (``options``: what a command line built on it needs, as ``wiswarm``'s own uses).
+PUBLIC = {"wiswarm_zenoh", "wiswarm_zenoh.core", "wiswarm_zenoh.transport",
+          "wiswarm_zenoh.testbed", "wiswarm_zenoh.baselines", "wiswarm_zenoh.options",
+          "wiswarm_zenoh.dashboard"}
+
+
+def imports(path: Path) -> Iterator[tuple[str, list[str]]]:
+    """(module, names) of every absolute import in ``path``."""
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name, []
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            yield node.module, [alias.name for alias in node.names]
+
+
+def sources(directory: Path) -> list[Path]:
+    return sorted(directory.rglob("*.py"))
+
+
+@pytest.mark.parametrize("module", [p for p in sources(PACKAGE) if "cli" not in p.parts],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_nothing_below_the_cli_imports_it(module: Path) -> None:
+    upward = [m for m, _ in imports(module) if m.startswith("wiswarm_zenoh.cli")]
+    assert not upward, f"{module.name} imports {upward}"
+
+
+@pytest.mark.parametrize("module", sources(ROOT / "apps"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_applications_import_only_what_the_packages_export(module: Path) -> None:
+    inside = [m for m, _ in imports(module)
+              if m.startswith("wiswarm_zenoh") and m not in PUBLIC]
+    assert not inside, f"{module.name} reaches into {inside}"
+
+
+@pytest.mark.parametrize("module", sources(ROOT / "tests") + sources(ROOT / "apps"),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_no_private_name_is_imported(module: Path) -> None:
+    private = [f"{m}.{n}" for m, names in imports(module) for n in names
+               if m.startswith(("wiswarm_zenoh", "apps")) and n.startswith("_")]
+    assert not private, f"{module.name} imports {private}"
+
+
+@pytest.mark.parametrize("source, judged", [
+    ("from wiswarm_zenoh.core.wire import _decode", ["wiswarm_zenoh.core.wire"]),
+    ("import wiswarm_zenoh.transport.links", ["wiswarm_zenoh.transport.links"]),
+    ("from wiswarm_zenoh.transport import LeaderNode", ["wiswarm_zenoh.transport"]),
+])
+def test_the_reader_sees_each_spelling(tmp_path: Path, source: str, judged: list[str]) -> None:
+    path = tmp_path / "m.py"
+    path.write_text(source)
+    assert [m for m, _ in imports(path)] == judged
