@@ -162,7 +162,7 @@ def _tracking(args: argparse.Namespace) -> int:
     channel = channel_spec(args)
     try:
         base = demo.DemoOptions(duration_s=args.duration, seed=args.seed, channel=channel,
-                                frame_px=args.frame_size)
+                                frame_px=args.frame_size, dashboard_port=None)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     require_testbed()
