@@ -223,11 +223,14 @@ def test_remove_while_in_flight() -> None:
     assert leader.followers == ["b"]
     assert leader.in_flight is None and leader.get_timer() is None
     assert on_timer(leader, 10.0) == []
-    events = on_reply(leader, "a", raw, 0.002)
-    assert len(events) == 1 and isinstance(events[0], Stale)
-    assert leader.unknown_replies == 1
+    assert on_reply(leader, "a", raw, 0.002) == []  # it left: its answer is no bad input
+    assert leader.unknown_replies == 0 and leader.stats("a", 0.002).deliveries == 0
     assert poll(leader, 0.01).follower == "b"
     assert leader.departed == ["a"]
+    leader.forget_follower("a")
+    events = on_reply(leader, "a", raw, 0.02)  # from a stranger now
+    assert len(events) == 1 and isinstance(events[0], Stale)
+    assert leader.unknown_replies == 1
     leader.remove_follower("a")  # already gone: nothing to do
     leader.remove_follower("b")
     assert leader.next_poll(1.0) is None

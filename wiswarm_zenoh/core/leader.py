@@ -168,9 +168,10 @@ class Leader:
     def receive_reply(self, follower: str, data: bytes, now: float) -> None:
         """One reply from ``follower`` (the key it came from), whatever it holds."""
         peer = self.table.peers.get(follower)
-        if peer is None:
-            self.unknown_replies += 1
-            self._events.append(Stale(follower, "reply from a follower that is not a member"))
+        if peer is None:  # one that just left may still answer: that is no bad input
+            if follower not in self._departed:
+                self.unknown_replies += 1
+                self._events.append(Stale(follower, "reply from a follower that is not a member"))
             return
         try:
             reply = decode_reply(data, follower)
@@ -251,8 +252,7 @@ class Leader:
         return min(life.request.deadline for life in self._flights.values())
 
     def stats(self, follower: str, now: float) -> FollowerStats:
-        """One follower's figures, every reply so far taken (their events wait); for one
-        that left, its figures as they stand now (``present`` False, its age growing)."""
+        """One follower's figures, every reply so far taken (one that left: ageing)."""
         self._advance(settle=True)
         if follower in self._departed:
             return self._departed[follower].stats(follower, now, present=False)
