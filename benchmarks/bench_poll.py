@@ -163,13 +163,11 @@ def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds:
     def count(sample: zenoh.Sample) -> None:
         records[0] += len(json.loads(sample.payload.to_bytes()))
 
-    with watcher.open() as watching:
-        subscriber = watching.declare_subscriber(f"wiswarm/{SWARM}/leader/deliveries", count)
+    with watcher.open() as watching:  # its subscriber (held) goes with it
+        _held = watching.declare_subscriber(f"wiswarm/{SWARM}/leader/deliveries", count)
         start = time.perf_counter()
         rate, _, _ = leader_round(session, n, seconds, config, control_period)
-        got = records[0] / (time.perf_counter() - start)
-        subscriber.undeclare()
-    return rate, got
+        return rate, records[0] / (time.perf_counter() - start)
 
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
