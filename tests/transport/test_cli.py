@@ -129,6 +129,27 @@ def test_ctrl_c_stops_the_demo_and_every_child(tmp_path: Path) -> None:
     assert all(_wait_gone(pid) for pid in children)
 
 
+def test_sigterm_stops_a_node_as_ctrl_c_does() -> None:
+    """A service manager stops a node with SIGTERM: it ends as after Ctrl-C (its summary
+    printed, exit 0), not killed by the signal (-15) with its summary lost."""
+    port = free_tcp_port()
+    leader = subprocess.Popen(
+        [sys.executable, "-c", ENTRY, "leader", "--swarm", "term", "-l",
+         f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        assert leader.stdout is not None
+        for line in leader.stdout:  # its table is drawn once it runs
+            if "polls/s, up" in line:
+                break
+        leader.send_signal(signal.SIGTERM)
+        rest = leader.communicate(timeout=WAIT)[0]
+    finally:
+        leader.kill()
+    assert leader.returncode == 0, rest
+    assert "summary" in rest
+
+
 @pytest.mark.parametrize("mode", ["router", "peer", "client"])
 def test_the_shipped_zenoh_configs_load(mode: str) -> None:
     path = Path(__file__).resolve().parents[2] / "configs" / f"{mode}.json5"

@@ -14,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from wiswarm_zenoh.options import OneLineParser, UsageError
+from wiswarm_zenoh.transport.runners import sigterm_as_ctrl_c
 from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
 # Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
@@ -57,7 +58,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command != "router":  # which starts Zenoh's log itself, showing denials
         init_zenoh_log(args.verbose)
     try:
-        code: int = args.func(args)
+        with sigterm_as_ctrl_c():  # a service manager's stop ends a node as Ctrl-C does
+            code: int = args.func(args)
     except UsageError as exc:
         print(f"wiswarm {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import logging
 import multiprocessing
-import signal
 import sys
 import threading
 import time
@@ -21,7 +20,7 @@ from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
 from multiprocessing.synchronize import Event as ProcessEvent
 from pathlib import Path
-from types import FrameType, TracebackType
+from types import TracebackType
 from typing import Any, TextIO
 
 import zenoh
@@ -45,6 +44,7 @@ from wiswarm_zenoh.transport.runners import (
     run_follower,
     run_leader,
     run_router,
+    sigterm_as_ctrl_c,
 )
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
@@ -209,10 +209,6 @@ def _run_dir(out: str) -> Path:
     return path
 
 
-def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
-    raise KeyboardInterrupt
-
-
 def run_demo(options: DemoOptions, stream: TextIO = sys.stdout) -> Path:
     """Run the demo; returns the run directory. Ctrl-C (or SIGTERM) ends it early."""
     run_dir = _run_dir(options.out)
@@ -220,13 +216,12 @@ def run_demo(options: DemoOptions, stream: TextIO = sys.stdout) -> Path:
     node_spec = SessionSpec.loopback("peer", connect_ports=[port])
     keys = SwarmKeys(options.swarm)
     record = run_dir / "deliveries.csv"
-    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     table = LiveTable(stream)
     title = f"WiSwarm demo: {options.followers} followers, {options.policy}"
     collector: StatsCollector | None = None
     interrupted = False
     try:
-        with Children(multiprocessing.get_context("spawn")) as children:
+        with sigterm_as_ctrl_c(), Children(multiprocessing.get_context("spawn")) as children:
             stream.write(f"starting a router on 127.0.0.1:{port}, a leader and "
                          f"{options.followers} followers...\n")
             stream.flush()
@@ -250,8 +245,6 @@ def run_demo(options: DemoOptions, stream: TextIO = sys.stdout) -> Path:
     except KeyboardInterrupt:
         interrupted = True
         stream.write("\ninterrupted: every process stopped\n")
-    finally:
-        signal.signal(signal.SIGTERM, previous)
     _write_outputs(run_dir, collector, record, title, stream)
     if interrupted:
         raise KeyboardInterrupt

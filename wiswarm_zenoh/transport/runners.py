@@ -15,6 +15,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from types import FrameType
 from typing import Any, Protocol
 
 import zenoh
@@ -72,6 +73,25 @@ def wait_until_stopped(stop: StopSignal, duration: float | None = None,
                 tick()
     except KeyboardInterrupt:
         log.info("interrupted: stopping")
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
+def sigterm_as_ctrl_c() -> Iterator[None]:
+    """SIGTERM (a service manager's stop, ``kill``) ends a node as Ctrl-C does: cleanly,
+    its tokens undeclared and its summary printed. Signals reach the main thread only:
+    elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def run_child(target: Callable[..., object], args: tuple[Any, ...],
