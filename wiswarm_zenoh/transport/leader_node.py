@@ -1,9 +1,10 @@
 """The leader on Zenoh: discovery by liveliness, the poll loop, control and telemetry.
 
-One thread owns the loop and keeps exactly one poll in flight. It feeds the core and
-pulls from it, nothing else: a reply arrives, it is fed in (``receive_reply``), the next
-poll goes out (``next_poll``), the core's events are drained (``next_event``: the work a
-reply brings is done then, while that poll is on its way) and handed on. Everything the
+One thread owns the loop and keeps the polls the core allows in flight (one, the
+paper's rule, unless ``LeaderConfig.in_flight`` says more). It feeds the core and pulls
+from it, nothing else: a reply arrives, it is fed in (``receive_reply``), the next polls
+go out (``next_poll``), the core's events are drained (``next_event``: the work a reply
+brings is done then, while those polls are on their way) and handed on. Everything the
 loop reacts to comes through one inbox: replies, put there by Zenoh's own thread (see
 ``links``), and wake-ups for membership changes. It waits on that inbox until the
 core's timer (``get_timer``) or the next stats. The core's timer alone ends a poll that
