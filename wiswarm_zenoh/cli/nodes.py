@@ -67,6 +67,7 @@ BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
                "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
                "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
+               "timeout_floor": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
@@ -167,7 +168,7 @@ def _leader(args: argparse.Namespace) -> int:
     if args.system != "wiswarm":
         return _receiver(args)
     config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha",
-                                             "in_flight"))
+                                             "in_flight", "timeout_floor"))
     control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
     if args.site is not None and args.upstream is None:
         raise UsageError("--site names this leader's site in the parent swarm: give the "
@@ -267,6 +268,10 @@ def register(subparsers: Any) -> None:
                         help="wiswarm: the longest wait for a reply, in seconds (each "
                         "follower's timeout adapts to its answers below it; default "
                         f"{defaults.timeout})")
+    leader.add_argument("--timeout-floor", type=positive_float(), metavar="SECONDS",
+                        help="wiswarm: the shortest a follower's adaptive timeout gets "
+                        f"(default {defaults.timeout_floor}); raise it where hosts stall "
+                        "for longer (hundreds of followers sharing a small machine)")
     leader.add_argument("--in-flight", type=positive_int(64), metavar="K",
                         help="wiswarm: polls out at once, each to another follower (default "
                         "1, the paper's rule: right wherever the polls share a radio "
