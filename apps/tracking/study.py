@@ -32,6 +32,7 @@ from wiswarm_zenoh.options import (
     format_rate,
     positive_float,
     require_testbed,
+    show_written,
     writable_dir,
 )
 from wiswarm_zenoh.testbed import best_of_grid, share_fps
@@ -177,10 +178,7 @@ def _tracking(args: argparse.Namespace) -> int:
         run_study(study, ns, args.rates, args.fixed_rate)
     except KeyboardInterrupt:
         interrupted = True
-    paths = write_files(out, study.rows, title, args.fixed_rate)
-    print("\n".join(map(str, paths)))
-    print(paths[-1].read_text(), end="")
-    return 130 if interrupted else 0
+    return show_written(write_files(out, study.rows, title, args.fixed_rate), interrupted)
 
 
 def register_tracking(studies: Any) -> None:

@@ -20,6 +20,7 @@ from wiswarm_zenoh.options import (
     positive_float,
     positive_int,
     require_testbed,
+    show_written,
     writable_dir,
 )
 from wiswarm_zenoh.testbed.edge_cloud_report import write_all
@@ -66,11 +67,7 @@ def _edge_cloud(args: argparse.Namespace) -> int:
           f"{', '.join(s.label for s in setups)}; {len(setups)} runs of about "
           f"{config.warmup + config.duration:g} s; output in {out}", file=sys.stderr)
     results = run_edge_cloud(config, out / "records", ProgressBar("edge-cloud"))
-    files = write_all(out, results)
-    for path in files:
-        print(path)
-    print(files[-1].read_text(), end="")
-    return 130 if results.interrupted else 0
+    return show_written(write_all(out, results), results.interrupted)
 
 
 def register_edge_cloud(studies: Any) -> None:

@@ -29,6 +29,7 @@ from wiswarm_zenoh.options import (
     positive_float,
     positive_int,
     require_testbed,
+    show_written,
     writable_dir,
 )
 from wiswarm_zenoh.sim.sweep import PAPER_NS
@@ -83,12 +84,7 @@ def _testbed(args: argparse.Namespace) -> int:
         results = run_study(config, out / "records", bar) if live is None else study_by_n(
             config, lambda part, progress: run_study(part, out / "records", progress), bar,
             live)
-    files = write_study(out, config, results)
-    for path in files:
-        print(path)
-    if files[-1].suffix == ".md":
-        print(files[-1].read_text(), end="")
-    return 130 if results.interrupted else 0
+    return show_written(write_study(out, config, results), results.interrupted)
 
 
 def register_testbed(studies: Any) -> None:

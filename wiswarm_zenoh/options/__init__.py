@@ -29,7 +29,7 @@ from wiswarm_zenoh.options.arguments import (
     writable_dir,
     writable_file,
 )
-from wiswarm_zenoh.options.progress import ProgressBar
+from wiswarm_zenoh.options.progress import ProgressBar, show_written
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     SIZE,
@@ -79,6 +79,7 @@ __all__ = [
     "positive_int",
     "readable_file",
     "require_testbed",
+    "show_written",
     "writable_dir",
     "writable_file",
 ]

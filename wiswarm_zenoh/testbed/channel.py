@@ -13,19 +13,17 @@ channels made by ``wiswarm testbed up`` are persistent and kept until ``down``.
 
 from __future__ import annotations
 
-import contextlib
-import fcntl
 import itertools
 import json
 import logging
 import os
 import re
-from collections.abc import Iterator
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from types import TracebackType
 
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
+from wiswarm_zenoh.testbed.ownership import locked, namespace_exists, process_start
 from wiswarm_zenoh.testbed.spec import (
     DEFAULT_SPEC,
     MTU,
@@ -98,35 +96,12 @@ def _addresses(subnet: int) -> tuple[str, str]:
     return f"10.201.{subnet}.1", f"10.201.{subnet}.2"
 
 
-@contextlib.contextmanager
-def _locked() -> Iterator[None]:
-    """Serialise building and removing across threads and processes (flock)."""
-    STATE_DIR.mkdir(mode=0o755, parents=True, exist_ok=True)
-    with (STATE_DIR / ".lock").open("a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        yield
-
-
 def _links(ns: str) -> set[str]:
     return {link["ifname"] for link in run_json("ip", "-n", ns, "-j", "link", "show")}
 
 
-def _ns_exists(ns: str) -> bool:
-    return (NETNS_DIR / ns).exists()
-
-
-def _process_start(pid: int) -> int | None:
-    """The start time of a live process (not a zombie), or None if it is gone."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return None
-    fields = stat.rsplit(")", 1)[1].split()  # the name may hold spaces and parentheses
-    return None if fields[0] in ("Z", "X") else int(fields[19])  # state, starttime
-
-
 def _owned_by_live_process(record: _Record) -> bool:
-    return record.persistent or _process_start(record.owner_pid) == record.owner_start
+    return record.persistent or process_start(record.owner_pid) == record.owner_start
 
 
 def list_channels() -> list[str]:
@@ -145,7 +120,7 @@ def _remove_locked(run_id: str) -> bool:
     """Remove the veth (both ends, with their qdiscs), the namespaces and the record, and
     verify; True if there was a channel to remove."""
     pairs = tuple(zip(_namespaces(run_id), (LEADER_IF, FOLLOWER_IF), strict=True))
-    present = [(ns, ifname) for ns, ifname in pairs if _ns_exists(ns)]
+    present = [(ns, ifname) for ns, ifname in pairs if namespace_exists(ns)]
     for ns, ifname in present:
         if ifname in _links(ns):
             run("ip", "-n", ns, "link", "del", "dev", ifname)  # takes its peer along
@@ -153,7 +128,7 @@ def _remove_locked(run_id: str) -> bool:
         if ifname in _links(ns):
             raise RuntimeError(f"{ifname} is still in namespace {ns} after deleting it")
         run("ip", "netns", "del", ns)
-    left = [ns for ns, _ in pairs if _ns_exists(ns)]
+    left = [ns for ns, _ in pairs if namespace_exists(ns)]
     if left:
         raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
     _record_path(run_id).unlink(missing_ok=True)
@@ -162,7 +137,7 @@ def _remove_locked(run_id: str) -> bool:
 
 def remove_channel(run_id: str) -> None:
     """Remove channel ``run_id`` whoever made it; LookupError if there is none."""
-    with _locked():
+    with locked(STATE_DIR):
         if not _remove_locked(run_id):
             raise LookupError(f"no testbed channel {run_id!r}")
     log.info("removed testbed channel %s", run_id)
@@ -187,7 +162,7 @@ def _cleanup_locked() -> list[str]:
 
 def cleanup_leftovers() -> list[str]:
     """Remove channels whose creating process is gone; returns their run ids."""
-    with _locked():
+    with locked(STATE_DIR):
         return _cleanup_locked()
 
 
@@ -235,7 +210,7 @@ class Channel:
         if self._built:
             return self
         check_available()
-        with _locked():
+        with locked(STATE_DIR):
             _cleanup_locked()
             run_id = self._name or self._fresh_id()
             if self._name is not None and (run_id in list_channels()
@@ -250,7 +225,7 @@ class Channel:
             self._place(run_id, subnet)
             self.persistent = persistent
             owner = 0 if persistent else os.getpid()
-            start = 0 if persistent else _process_start(owner)
+            start = 0 if persistent else process_start(owner)
             _Record(run_id, owner, start or 0, subnet, self.spec).save()
             self.persistent, self.owner_pid = persistent, owner
             try:
@@ -295,7 +270,7 @@ class Channel:
         """Remove the channel (veth and qdiscs, namespaces, record); safe to repeat."""
         if not self._built:
             return
-        with _locked():
+        with locked(STATE_DIR):
             _remove_locked(self.run_id)
         self._built = False
         log.info("testbed channel %s removed", self.run_id)
@@ -316,7 +291,7 @@ class Channel:
                 run("tc", "-n", ns, "qdisc", "change", "dev", ifname, "root",
                      *tbf_args(new, spec))
         self.spec = spec
-        with _locked():
+        with locked(STATE_DIR):
             record = _Record.load(self.run_id)
             if record is not None:
                 replace(record, spec=spec).save()
@@ -357,7 +332,7 @@ class Channel:
         """The present channel ``run_id`` (made by any process), its spec read from tc;
         LookupError if it does not exist. Closing it removes the channel."""
         leader_ns, follower_ns = _namespaces(run_id)
-        if not (_ns_exists(leader_ns) and _ns_exists(follower_ns)):
+        if not (namespace_exists(leader_ns) and namespace_exists(follower_ns)):
             raise LookupError(f"no testbed channel {run_id!r}")
         record = _Record.load(run_id)
         up, down = tbf_qdisc(follower_ns, FOLLOWER_IF), tbf_qdisc(leader_ns, LEADER_IF)

@@ -21,20 +21,18 @@ site channels also have their own records, see ``channel``).
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import itertools
 import json
 import logging
 import math
 import os
-from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
 from types import TracebackType
 
 from wiswarm_zenoh.testbed.channel import STATE_DIR, Channel, remove_channel
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT, Placement
+from wiswarm_zenoh.testbed.ownership import locked, namespace_exists, process_start
 from wiswarm_zenoh.testbed.spec import MTU, ChannelSpec, LinkCounters, check_available
 from wiswarm_zenoh.testbed.tc import counters, run, run_json, tbf_args
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
@@ -145,31 +143,10 @@ def cloud_router() -> SessionSpec:
                        cfg=(NO_SHARED_MEMORY,), multicast_scouting=False)
 
 
-@contextlib.contextmanager
-def _locked() -> Iterator[None]:
-    RECORDS.mkdir(mode=0o755, parents=True, exist_ok=True)
-    with (RECORDS / ".lock").open("a") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
-        yield
-
-
-def _process_start(pid: int) -> int | None:
-    """A live process's start time (clock ticks), or None if gone or a zombie."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except OSError:
-        return None
-    return None if fields[0] in ("Z", "X") else int(fields[19])
-
-
-def _ns_exists(ns: str) -> bool:
-    return (NETNS_DIR / ns).exists()
-
-
 def _remove(record: dict[str, object]) -> None:
     """Remove a topology's WAN links, cloud namespace, site channels and record."""
     cloud_ns = str(record["cloud_ns"])
-    if _ns_exists(cloud_ns):
+    if namespace_exists(cloud_ns):
         for link in run_json("ip", "-n", cloud_ns, "-j", "link", "show"):
             if str(link["ifname"]).startswith("wsw-C"):
                 run("ip", "-n", cloud_ns, "link", "del", "dev", link["ifname"])  # and its peer
@@ -186,11 +163,11 @@ def cleanup_leftovers() -> list[str]:
     record names (a record is written before its namespace is made); returns the run
     ids removed."""
     removed, kept = [], set()
-    with _locked():
+    with locked(RECORDS):
         for path in sorted(RECORDS.glob("*.json")):
             try:
                 record = json.loads(path.read_text())
-                alive = _process_start(int(record["owner_pid"])) == record["owner_start"]
+                alive = process_start(int(record["owner_pid"])) == record["owner_start"]
             except (OSError, ValueError, KeyError, TypeError) as exc:
                 log.warning("unreadable edge-cloud record %s (%s): removing it", path, exc)
                 path.unlink(missing_ok=True)
@@ -234,7 +211,7 @@ class EdgeCloud:
 
     def _record(self) -> dict[str, object]:
         pid = os.getpid()
-        return {"run_id": self.run_id, "owner_pid": pid, "owner_start": _process_start(pid),
+        return {"run_id": self.run_id, "owner_pid": pid, "owner_start": process_start(pid),
                 "cloud_ns": self.cloud_ns, "channels": [s.channel.run_id for s in self.sites]}
 
     def _save(self) -> None:
@@ -248,14 +225,14 @@ class EdgeCloud:
             return self
         check_available()
         cleanup_leftovers()
-        with _locked():
+        with locked(RECORDS):
             self._save()
         self._built = True
         try:
             for index in range(1, self.count + 1):
                 channel = Channel(self.local).build()
                 self.sites.append(Site(f"s{index}", index, channel))
-                with _locked():
+                with locked(RECORDS):
                     self._save()
             run("ip", "netns", "add", self.cloud_ns)
             run("ip", "-n", self.cloud_ns, "link", "set", "dev", "lo", "up")
@@ -304,7 +281,7 @@ class EdgeCloud:
         """Remove everything built (safe to repeat, and after a failed build)."""
         if not self._built:
             return
-        with _locked():
+        with locked(RECORDS):
             _remove(self._record())
         self.sites.clear()
         self._built = False
