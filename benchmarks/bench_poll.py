@@ -73,11 +73,20 @@ READY_TIMEOUT = 30.0
 WARM_UP_ROUNDS = 20  # polls per follower before either loop's clock starts: steady state
 
 
-def bare_reply(follower: str, frame: bytes) -> bytes:
-    """What a FollowerNode answers to a poll when it has one fresh frame."""
-    core = Follower(follower, FollowerConfig())
+def serve_bare(session: zenoh.Session, follower: str, frame: bytes,
+               stack: contextlib.ExitStack) -> None:
+    """``follower``'s bare queryable: its FollowerNode's reply to a fresh ``frame``, fixed."""
+    core = Follower(follower, FollowerConfig())  # what a FollowerNode answers, one frame
     core.offer(frame, time.time())
-    return core.on_poll(encode_poll(Poll(1, time.time(), None)), time.time(), time.time())
+    reply = core.on_poll(encode_poll(Poll(1, time.time(), None)), time.time(), time.time())
+    key = f"wiswarm/{BARE}/{follower}/update"
+
+    def answer(query: zenoh.Query) -> None:
+        with query:
+            query.reply(key, reply)
+
+    queryable = session.declare_queryable(key, zenoh.handlers.Callback(answer, indirect=False))
+    stack.callback(queryable.undeclare)
 
 
 def followers_process(specs: list[SessionSpec], followers: list[str], frame_bytes: int,
@@ -92,16 +101,7 @@ def followers_process(specs: list[SessionSpec], followers: list[str], frame_byte
         for follower, spec in zip(followers, specs, strict=True):
             session = stack.enter_context(spec.open())
             if bare:
-                reply = bare_reply(follower, frame)
-                key = f"wiswarm/{BARE}/{follower}/update"
-
-                def answer(query: zenoh.Query, key: str = key, reply: bytes = reply) -> None:
-                    with query:
-                        query.reply(key, reply)
-
-                queryable = session.declare_queryable(
-                    key, zenoh.handlers.Callback(answer, indirect=False))
-                stack.callback(queryable.undeclare)
+                serve_bare(session, follower, frame, stack)
             node = stack.enter_context(FollowerNode(
                 session, SWARM, follower, sample_on_poll=None if camera else lambda: frame))
             if camera:

@@ -48,7 +48,7 @@ from collections import defaultdict
 from functools import partial
 
 import zenoh
-from bench_poll import BARE, NO_SHM, Job, bare_reply, children, wait_for_routes
+from bench_poll import BARE, NO_SHM, Job, children, serve_bare, wait_for_routes
 
 from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.aoi import AoITracker
@@ -75,15 +75,7 @@ def host_process(spec: SessionSpec, followers: list[str], frame_bytes: int,
     frame = bytes(frame_bytes)
     with spec.open() as session, contextlib.ExitStack() as stack:
         for follower in followers:
-            key, reply = f"wiswarm/{BARE}/{follower}/update", bare_reply(follower, frame)
-
-            def answer(query: zenoh.Query, key: str = key, reply: bytes = reply) -> None:
-                with query:
-                    query.reply(key, reply)
-
-            queryable = session.declare_queryable(
-                key, zenoh.handlers.Callback(answer, indirect=False))
-            stack.callback(queryable.undeclare)
+            serve_bare(session, follower, frame, stack)
             stack.enter_context(FollowerNode(session, SWARM, follower,
                                              sample_on_poll=lambda: frame))
         ready.set()
