@@ -5,8 +5,6 @@ the one-line error, progress for long runs, and the testbed's flags."""
 from wiswarm_zenoh.options.arguments import (
     CONNECT_ENDPOINT,
     COUNTS,
-    FRAME_RATES,
-    KEY_VALUE,
     LISTEN_ENDPOINT,
     PROBABILITIES,
     RATE,
@@ -25,34 +23,29 @@ from wiswarm_zenoh.options.arguments import (
     one_of,
     positive_float,
     positive_int,
-    readable_file,
     writable_dir,
     writable_file,
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
-    SIZE,
     add_channel_arguments,
     add_rates,
     channel_spec,
     parse_size,
     require_testbed,
 )
-from wiswarm_zenoh.units import format_rate, parse_rate, parse_seconds
+from wiswarm_zenoh.units import format_rate
 from wiswarm_zenoh.usage import OneLineParser, UsageError
 
 __all__ = [
     "CONNECT_ENDPOINT",
     "COUNTS",
-    "FRAME_RATES",
-    "KEY_VALUE",
     "LISTEN_ENDPOINT",
     "PROBABILITIES",
     "RATE",
     "RUN_ID",
     "SEED",
-    "SIZE",
     "TIME",
     "ArgType",
     "OneLineParser",
@@ -72,12 +65,9 @@ __all__ = [
     "listed",
     "node_name",
     "one_of",
-    "parse_rate",
-    "parse_seconds",
     "parse_size",
     "positive_float",
     "positive_int",
-    "readable_file",
     "require_testbed",
     "show_written",
     "writable_dir",
