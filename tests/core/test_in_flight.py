@@ -75,7 +75,7 @@ def test_a_single_follower_is_never_polled_twice_at_once() -> None:
 
 
 @settings(max_examples=60, deadline=None, derandomize=True)
-@given(steps=st.lists(st.tuples(st.sampled_from(["poll", "answer", "timer"]),
+@given(steps=st.lists(st.tuples(st.sampled_from(["poll", "answer", "timer", "end"]),
                                 st.integers(0, 4)), max_size=80),
        in_flight=st.integers(1, 4))
 def test_any_interleaving_keeps_k_distinct_polls_at_most_and_delivers_what_is_answered(
@@ -99,6 +99,11 @@ def test_any_interleaving_keeps_k_distinct_polls_at_most_and_delivers_what_is_an
             if now < request.deadline:
                 assert any(isinstance(e, Delivered) and e.follower == follower
                            for e in events)
+        elif action == "end" and out:  # its get is over, unanswered: the slot frees at once
+            follower = sorted(out)[pick % len(out)]
+            request = out.pop(follower)
+            leader.receive_end(follower, request.poll_seq, now)
+            assert TimedOut(follower, request.poll_seq) in drain(leader)
         else:
             leader.handle_timer(now)
             drain(leader)

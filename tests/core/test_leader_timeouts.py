@@ -7,7 +7,16 @@ from collections.abc import Mapping
 
 import pytest
 
-from wiswarm_zenoh.core import Follower, Leader, LeaderConfig, Stale, TimedOut
+from wiswarm_zenoh.core import (
+    Answering,
+    Delivered,
+    Follower,
+    Leader,
+    LeaderConfig,
+    Silent,
+    Stale,
+    TimedOut,
+)
 
 from .drive import answer, exchange, on_reply, on_timer, poll
 from .test_leader import _aoi, _setup
@@ -16,22 +25,50 @@ from .test_leader import _aoi, _setup
 def test_timeout_lowers_p_hat_and_only_the_timer_ends_an_unanswered_poll() -> None:
     leader, followers = _setup("a", config=LeaderConfig(window=20, prior_p=1.0, timeout=0.3,
                                                         adaptive_timeout=False))
-    request = poll(leader, 0.0)
-    assert on_timer(leader, 0.29) == []
-    assert on_timer(leader, 0.3) == [TimedOut("a", request.poll_seq)]
-    assert on_timer(leader, 0.4) == []
-    assert leader.stats("a", 0.3).p_hat == pytest.approx(0.95)
+    exchange(leader, followers, 0.0)  # it answered once: a timeout now is no verdict
     request = poll(leader, 1.0)
-    assert leader.get_timer() == pytest.approx(1.3)
+    assert on_timer(leader, 1.29) == []
     assert on_timer(leader, 1.3) == [TimedOut("a", request.poll_seq)]
-    s = leader.stats("a", 2.0)
-    assert (s.timeouts, s.polls) == (2, 2)
+    assert on_timer(leader, 1.4) == []
+    assert leader.stats("a", 1.3).p_hat == pytest.approx(0.95)
+    request = poll(leader, 2.0)
+    assert leader.get_timer() == pytest.approx(2.3)
+    assert on_timer(leader, 2.3) == [TimedOut("a", request.poll_seq)]
+    s = leader.stats("a", 3.0)
+    assert (s.timeouts, s.polls) == (2, 3)
     assert s.p_hat == pytest.approx(0.9)
-    exchange(leader, followers, 2.0)
+    exchange(leader, followers, 3.0)
     assert leader.get_timer() is None
-    assert on_timer(leader, 2.5) == []  # a valid reply came: answered
-    assert leader.stats("a", 2.1).p_hat == pytest.approx(0.9)
-    assert leader.stats("a", 2.1).timeouts == 2
+    assert on_timer(leader, 3.5) == []  # a valid reply came: answered
+    assert leader.stats("a", 3.1).p_hat == pytest.approx(0.9)
+    assert leader.stats("a", 3.1).timeouts == 2
+
+
+def test_a_member_that_never_answered_is_silent_from_its_first_miss() -> None:
+    """A token with nothing behind it, a hung or garbage-speaking queryable: one poll,
+    then probes alone with back-off, never the W polls at full price of one that
+    answered before; its first answer brings it in with its prior back."""
+    leader, followers = _setup("a", "ghost")
+    t = 0.0
+    while (request := poll(leader, t)).follower != "ghost":  # a answers in 1 ms
+        followers["a"].offer(b"frame", t)
+        on_reply(leader, "a", followers["a"].on_poll(request.payload, t, t), t + 0.001)
+        t += 0.01
+    assert leader.stats("a", t).polls >= 1
+    # judged by the swarm's polls, not the 0.3 s ceiling: twice the longest, the floor
+    assert request.deadline - request.sent_at == pytest.approx(leader.config.timeout_floor)
+    events = on_timer(leader, request.deadline)
+    assert events == [TimedOut("ghost", request.poll_seq), Silent("ghost", 1, False)]
+    assert leader.stats("ghost", request.deadline).p_hat == 0.0
+    silent_at = t = request.deadline
+    followers["ghost"].offer(b"late frame", t)
+    while (request := poll(leader, t)).follower != "ghost":  # probed after probe_interval
+        on_reply(leader, "a", followers["a"].on_poll(request.payload, t, t), t + 0.001)
+        t += 0.05
+    assert request.sent_at >= silent_at + leader.config.probe_interval
+    events = answer(leader, followers, request, request.sent_at + 0.001)
+    assert [type(e) for e in events] == [Answering, Delivered]
+    assert leader.stats("ghost", t).p_hat == pytest.approx(0.95)  # 1 miss, 1 answer, prior
 
 
 def test_reply_after_the_timeout_is_stale_and_lengthens_the_next_timeout() -> None:
@@ -90,10 +127,22 @@ def _run_with_a_dead_follower(
     return dead_polls, t
 
 
-def test_silent_follower_is_probed_with_back_off_and_cannot_starve_the_others() -> None:
-    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=4.0)
+def _answered_once(config: LeaderConfig) -> tuple[Leader, dict[str, Follower], float]:
+    """A swarm of "a" and "dead", where "dead" answered one poll (then died)."""
     leader, followers = _setup("a", "dead", config=config)
-    dead_polls, t = _run_with_a_dead_follower(leader, followers, 30.0)
+    t = 0.0
+    while (request := poll(leader, t)).follower != "dead":
+        answer(leader, followers, request, t)
+        t += 0.002
+    answer(leader, followers, request, t)
+    return leader, dict(followers), t + 0.002
+
+
+def test_silent_follower_is_probed_with_back_off_and_cannot_starve_the_others() -> None:
+    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=4.0,
+                          adaptive_timeout=False)
+    leader, followers, t = _answered_once(config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 30.0, start=t)
     assert leader.stats("dead", t).p_hat == 0.0
     # 5 polls to fall silent, then probes 0.5, 1, 2, 4, 4, 4... s apart
     probes = dead_polls[5:]
@@ -105,9 +154,9 @@ def test_silent_follower_is_probed_with_back_off_and_cannot_starve_the_others() 
 
 
 def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
-    config = LeaderConfig(window=2, timeout=0.1, probe_interval=0.5)
-    leader, followers = _setup("a", "dead", config=config)
-    dead_polls, t = _run_with_a_dead_follower(leader, followers, 0.5)
+    config = LeaderConfig(window=2, timeout=0.1, probe_interval=0.5, adaptive_timeout=False)
+    leader, followers, t = _answered_once(config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 0.5, start=t)
     assert len(dead_polls) == 2 and leader.stats("dead", t).p_hat == 0.0
     probe_due = dead_polls[-1] + 0.1 + 0.5
     quiet, t = _run_with_a_dead_follower(leader, followers, probe_due - 0.01, start=t)

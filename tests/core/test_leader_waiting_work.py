@@ -21,6 +21,7 @@ from wiswarm_zenoh.core import (
     LeaderConfig,
     PollRequest,
     Rejected,
+    Silent,
     TimedOut,
     drain,
 )
@@ -289,7 +290,8 @@ def test_a_timeout_counts_after_the_answer_before_it() -> None:
     second = poll(leader, 1.002)
     leader.handle_timer(second.deadline)
     assert [(type(e), e.follower) for e in drain(leader)] == [
-        (Delivered, first.follower), (TimedOut, second.follower)]
+        (Delivered, first.follower), (TimedOut, second.follower),
+        (Silent, second.follower)]  # it never answered: silent from its first miss
 
 
 def test_a_follower_removed_before_its_work_is_done_is_forgotten_with_its_reply() -> None:

@@ -29,6 +29,10 @@ def _cloud() -> tuple[Leader, dict[str, Follower]]:
 def test_a_dead_site_link_silences_the_site_and_its_return_revives_it() -> None:
     leader, followers = _cloud()
     now, silent, timeouts = 0.0, set(), {f: 0 for f in SITES}
+    while any(leader.stats(f, now).polls == 0 for f in SITES):  # all answered: the link was up
+        answer(leader, followers, poll(leader, now), now)
+        now += 0.002
+    drain(leader)
     while silent != {"s1.a", "s1.b"}:  # s1's link is down: its polls go unanswered
         request = poll(leader, now)
         if request.follower.startswith("s1."):

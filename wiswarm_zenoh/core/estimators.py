@@ -10,7 +10,11 @@ class ReliabilityEstimator:
     """``p_hat`` = answered share of the last ``window`` polls (paper: D_i(t) / W).
 
     Until ``window`` polls were made, the missing ones count as ``prior`` each, so a new
-    follower is neither starved (prior 1) nor trusted on one lucky answer.
+    follower is neither starved (prior 1) nor trusted on one lucky answer. A follower
+    that has never answered and misses a poll loses its prior (p = 0: silent, probed
+    alone with back-off) until it answers: a member that never gives a valid answer
+    (a token with nothing behind it, a hung or garbage-speaking queryable) costs the
+    swarm one poll, not ``window`` of them.
     """
 
     def __init__(self, window: int, prior: float = 1.0) -> None:
@@ -22,10 +26,15 @@ class ReliabilityEstimator:
         self.prior = prior
         self._outcomes: deque[bool] = deque(maxlen=window)
         self._answered = 0
+        self._prior_given = prior
+        self.ever_answered = False
         self.value = prior  # kept current by ``record``: the leader reads it on every poll
 
     def record(self, answered: bool) -> None:
         self.value = self.after(answered)
+        if not self.ever_answered:
+            self.ever_answered = answered
+            self.prior = self._prior_given if answered else 0.0
         if len(self._outcomes) == self.window and self._outcomes[0]:
             self._answered -= 1
         self._outcomes.append(answered)
@@ -36,7 +45,15 @@ class ReliabilityEstimator:
         full = len(self._outcomes) == self.window
         count = self._answered - (full and self._outcomes[0]) + answered
         missing = self.window - min(len(self._outcomes) + 1, self.window)
-        return (count + self.prior * missing) / self.window
+        prior = self.prior if self.ever_answered else self._prior_given * answered
+        return (count + prior * missing) / self.window
+
+    @property
+    def forgiving(self) -> float:
+        """p with one unanswered poll of the window forgiven: what one loss among many
+        answers says of the next poll (p over W polls moves by 1/W per loss and keeps it
+        for W polls of this follower, tens of seconds in a large swarm)."""
+        return min(1.0, self.value + 1.0 / self.window)
 
 
 class WeightEMA:

@@ -48,10 +48,13 @@ class Stale:
 
 @dataclass(frozen=True, slots=True)
 class Silent:
-    """None of the follower's last ``polls`` polls was answered: it is probed alone now."""
+    """None of the follower's last ``polls`` polls was answered: it is probed alone now.
+    ``answered_before``: False for a member that never gave a valid answer (silent
+    from its first unanswered poll)."""
 
     follower: str
     polls: int
+    answered_before: bool = True
 
 
 @dataclass(frozen=True, slots=True)

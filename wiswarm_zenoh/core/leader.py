@@ -107,7 +107,7 @@ class Leader:
         back = self._departed.pop(follower, None)
         if back is not None:
             back.restart()
-        peer = back or Peer.new(follower, self.config, now)
+        peer = back or Peer.new(self.config, now, self.table.poll_times)
         if link is not None:
             self.site_links.attach(follower, peer, link)
         self.table.add(follower, peer)
@@ -200,17 +200,22 @@ class Leader:
             return
         self._advance(settle=True)  # what came before them is reported before them
         for life in sorted(expired, key=lambda life: life.request.deadline):
-            request, peer = life.request, life.peer
-            del self._flights[request.follower]
-            peer.timed_out.append((request.poll_seq, request.sent_at))
-            was_silent = peer.silent
-            self._complete(request, peer, answered=False, now=now)
-            peer.timeouts += 1
-            self.table.sync(request.follower)
-            self._events.append(TimedOut(request.follower, request.poll_seq))
-            if peer.silent and not was_silent:
-                peer.silent_since = now
-                self._events.append(Silent(request.follower, self.config.window))
+            self._unanswered(life, now, late_possible=True)
+
+    def receive_end(self, follower: str, poll_seq: int, now: float) -> None:
+        """No more replies can come to poll ``poll_seq`` of ``follower``: the shell's
+        request is over (Zenoh's get: no queryable matched, or every replier sent its
+        last). If no valid reply was taken, the poll is unanswered now, not at its
+        deadline, and the channel is free for the next; a reply refused meanwhile kept
+        it open only while the genuine answer could still come."""
+        life = self._flights.get(follower)
+        if life is None or life.request.poll_seq != poll_seq:
+            peer = self.table.peers.get(follower)
+            if peer is not None:
+                peer.late(poll_seq)  # timed out before: no late reply will teach anything
+            return
+        self._advance(settle=True)
+        self._unanswered(life, now, late_possible=False)
 
     # --- output ---
 
@@ -269,6 +274,25 @@ class Leader:
     def _reject(self, peer: Peer, follower: str, reason: str) -> None:
         peer.errors += 1
         self._events.append(Rejected(follower, reason))
+
+    def _unanswered(self, life: PollLife, now: float, late_possible: bool) -> None:
+        """The poll of ``life`` ends with no valid answer; ``late_possible``: a reply may
+        still come after it (and teach how slow the link is)."""
+        request, peer = life.request, life.peer
+        del self._flights[request.follower]
+        if late_possible:
+            peer.timed_out.append((request.poll_seq, request.sent_at))
+        was_silent = peer.silent
+        self._complete(request, peer, answered=False, now=now)
+        peer.timeouts += 1
+        self.table.sync(request.follower)
+        self._events.append(TimedOut(request.follower, request.poll_seq))
+        if peer.silent and not was_silent:
+            peer.silent_since = now
+            ever = peer.reliability.ever_answered
+            self._events.append(Silent(request.follower,
+                                       self.config.window if ever else peer.timing.unanswered,
+                                       ever))
 
     def _not_in_flight(self, peer: Peer, follower: str, reply: Reply, now: float) -> None:
         """A valid reply to a poll that is not out: late (it lengthens the follower's
@@ -356,9 +380,6 @@ class Leader:
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
         if answered:
             peer.timing.answered(duration)
-            typical = self.table.typical_success
-            self.table.typical_success = duration if typical == 0.0 else \
-                SLOT_EMA * typical + (1.0 - SLOT_EMA) * duration
         cfg = self.config
         before = peer.reliability.value
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)

@@ -20,7 +20,7 @@ from wiswarm_zenoh.core.clock import ClockOffsetEstimator
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
 from wiswarm_zenoh.core.fragments import Reassembler
-from wiswarm_zenoh.core.poll_timing import PollTiming
+from wiswarm_zenoh.core.poll_timing import PollTiming, SwarmPollTimes
 from wiswarm_zenoh.core.wire import Want
 
 IntArray = npt.NDArray[np.intp]
@@ -79,7 +79,8 @@ class Peer:
     stale: int = 0
 
     @classmethod
-    def new(cls, follower: str, config: LeaderConfig, now: float) -> Peer:
+    def new(cls, config: LeaderConfig, now: float, swarm: SwarmPollTimes) -> Peer:
+        """A follower just joined, judged by ``swarm``'s poll times until it answers."""
         return cls(
             aoi=AoITracker(now),
             reliability=ReliabilityEstimator(config.window, config.prior_p),
@@ -87,7 +88,7 @@ class Peer:
             clock=ClockOffsetEstimator(config.clock_samples),
             reassembler=Reassembler(config.max_fragments, config.max_update_bytes),
             timing=PollTiming(config.timeout, config.timeout_floor if config.adaptive_timeout
-                              else config.timeout),
+                              else config.timeout, swarm),
         )
 
     @property
@@ -157,7 +158,7 @@ class PeerTable:
     def __init__(self, weight_floor: float = 0.0, price_by_time: bool = False) -> None:
         self.weight_floor = weight_floor
         self.price_by_time = price_by_time
-        self.typical_success = 0.0  # mean answered poll duration, any follower (seconds)
+        self.poll_times = SwarmPollTimes()  # every follower's answered polls
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
         self.silent = 0
@@ -206,7 +207,7 @@ class PeerTable:
         p = peer.reliability.value
         self.silent += (p <= 0.0) - (self.p[i] <= 0.0)
         weight = max(peer.weight.value, self.weight_floor)
-        self.w[i] = (weight * peer.timing.price(p, self.typical_success)
+        self.w[i] = (weight * peer.timing.price(peer.reliability.forgiving)
                      if self.price_by_time else weight)
         self.p[i] = p
         self.tau[i] = peer.policy_tau

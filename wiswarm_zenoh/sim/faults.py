@@ -3,9 +3,10 @@
 Kadota et al.'s model charges every poll one slot, answered or not. On a real network a
 poll that goes unanswered holds the channel for the whole timeout, K slots. Here the
 core ``Leader`` (its estimates of p, its probing of silent followers) polls N followers
-in slot time: an answer takes 1 slot, a timeout K. Some followers are dead (never
-answer), some intermittent (down for ``outage`` slots out of every ``period``), the rest
-answer with probability p_i. Compared: the paper's index (``price_by_time`` off) and the
+in slot time: an answer takes 1 slot, a timeout K. Some followers are dead (they answer
+their first poll, then never again: a member that never answered at all is silent from
+its first miss and costs one poll whatever the index), some intermittent (down for
+``outage`` slots out of every ``period``), the rest answer with probability p_i. Compared: the paper's index (``price_by_time`` off) and the
 index per unit of expected poll time (on), by the weighted mean AoI of the followers
 that are alive.
 """
@@ -62,11 +63,15 @@ def run_faults(spec: FaultSpec) -> float:
         leader.observe_urgency(f, w[f])  # the weight, through the EMA as in a real run
     t = 0.0
     request = leader.next_poll(t)
+    died: set[str] = set()
     while t < spec.slots:
         assert request is not None
         f = request.follower
-        down = f in dead or (f in flaky and (t + phase[f]) % spec.period < spec.outage)
-        if not down and rng.random() < p[f]:
+        down = f in died or (f in flaky and (t + phase[f]) % spec.period < spec.outage)
+        first_of_dead = f in dead and f not in died
+        if first_of_dead:
+            died.add(f)
+        if not down and (first_of_dead or rng.random() < p[f]):
             follower = followers[f]
             follower.offer(b"x", t)
             leader.receive_reply(f, follower.on_poll(request.payload, t, t), t + 1.0)

@@ -10,6 +10,7 @@ import math
 import random
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
@@ -82,13 +83,19 @@ class Workload:
                             timeout=self.timeout, adaptive_timeout=self.adaptive_timeout)
 
 
+DIES_AT = 1.0  # seconds: when a dead follower's link stops delivering, under WiSwarm
+
+
 @dataclass(frozen=True)
 class WifiScenario(Workload):
     """A run over the 802.11 medium: the workload, each link's reliability, the PHY."""
 
     reliability: tuple[float, float] = DEFAULT_RELIABILITY
     params: WifiParams = field(default_factory=WifiParams)
-    dead: int = 0  # followers (the first ones) whose link delivers nothing: p = 0
+    # followers (the first ones) whose link delivers nothing: p = 0; under WiSwarm from
+    # DIES_AT on, once they answered (one that never answered is silent from its first
+    # miss and costs one poll, whatever the index: a dead follower is one that died)
+    dead: int = 0
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -148,12 +155,17 @@ def result_of(
 def run_wifi(s: WifiScenario) -> WifiResult:
     """Simulate ``s.duration`` seconds and measure every follower's AoI on ground truth."""
     rng = random.Random(s.seed)
-    p = [0.0 if i < s.dead else rng.uniform(*s.reliability) for i in range(s.n)]
+    p = [rng.uniform(*s.reliability) for _ in range(s.n)]
+    if s.system != "wiswarm":
+        p[:s.dead] = [0.0] * s.dead
     engine = Engine(rng.getrandbits(64))
     medium = Medium(engine, s.params)
     leader = medium.station("leader")
     stations = [medium.station(f"uav{i}") for i in range(s.n)]
     sinks, net = start_system(s, engine, medium, Airtime(s.params), leader, stations, p, rng)
+    if net is not None:
+        for i in range(s.dead):
+            engine.at(DIES_AT, partial(net.cut, i))
     engine.run(s.duration)
     return result_of(s, sinks, net, {
         "utilisation": medium.busy_time / s.duration,

@@ -77,6 +77,10 @@ class WiswarmNetwork:
     def start(self) -> None:
         self._engine.at(self._engine.now, self._poll)
 
+    def cut(self, i: int) -> None:
+        """Follower ``i``'s link delivers nothing from now on (the follower died)."""
+        self._p[i] = 0.0
+
     def _send_datagram(
         self, station: Station, size: int, p: float, hook: partial[None], broadcast: bool = False
     ) -> None:

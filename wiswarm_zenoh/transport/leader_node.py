@@ -5,12 +5,13 @@ paper's rule, unless ``LeaderConfig.in_flight`` says more). It feeds the core an
 from it, nothing else: a reply arrives, it is fed in (``receive_reply``), the next polls
 go out (``next_poll``), the core's events are drained (``next_event``: the work a reply
 brings is done then, while those polls are on their way) and handed on. Everything the
-loop reacts to comes through one inbox: replies, put there by Zenoh's own thread (see
-``links``), and wake-ups for membership changes. It waits on that inbox until the
-core's timer (``get_timer``) or the next stats. The core's timer alone ends a poll that
-gets no answer; Zenoh's get stays open until the ceiling (``--timeout``), so a reply
-that comes after the follower's adaptive deadline still reaches the core and lengthens
-that timeout.
+loop reacts to comes through one inbox: replies and the ends of gets, put there by
+Zenoh's own thread (see ``links``), and wake-ups for membership changes. It waits on
+that inbox until the core's timer (``get_timer``) or the next stats. A poll ends at its
+valid answer, at the end of its get (nobody to answer it: ``receive_end``), or at the
+core's timer; Zenoh's get stays open until the ceiling (``--timeout``), so a reply that
+comes after the follower's adaptive deadline still reaches the core and lengthens that
+timeout.
 """
 
 from __future__ import annotations
@@ -54,7 +55,8 @@ from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
-Arrival = tuple[FollowerLink, zenoh.Reply] | None  # a reply as its get brings it; None: wake up
+# A reply as its get brings it, or a get's end (the poll's sequence number); None: wake up
+Arrival = tuple[FollowerLink, zenoh.Reply | int] | None
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 CONTROL_PERIOD = 0.1  # seconds between repeats of unchanged control information
@@ -133,7 +135,8 @@ class LeaderNode:
         self._control = session.declare_publisher(self.keys.control, express=True)
         self._membership = Membership(
             session, self.keys, self.config.timeout,
-            lambda link, reply: self._inbox.put((link, reply)), lambda: self._inbox.put(None),
+            lambda link, reply: self._inbox.put((link, reply)),
+            lambda link, poll_seq: self._inbox.put((link, poll_seq)), lambda: self._inbox.put(None),
             self.bad_input, forget_after)
         self._links = self._membership.links
         self._handover = Handover(session, self.keys)
@@ -239,12 +242,17 @@ class LeaderNode:
                     with self._lock:
                         self._leader.handle_timer(self._clock())
                     continue
-                if arrival is not None:
-                    link, reply = arrival
-                    data = link.payload(reply, self._max_reply, self.bad_input)
-                    if data is not None:
-                        with self._lock:
-                            self._leader.receive_reply(link.follower, data, self._clock())
+                if arrival is None:
+                    continue
+                link, reply = arrival
+                if isinstance(reply, int):
+                    with self._lock:
+                        self._leader.receive_end(link.follower, reply, self._clock())
+                    continue
+                data = link.payload(reply, self._max_reply, self.bad_input)
+                if data is not None:
+                    with self._lock:
+                        self._leader.receive_reply(link.follower, data, self._clock())
         finally:
             self._hand_on()
 
@@ -290,7 +298,7 @@ class LeaderNode:
             if version != sent_version or now - sent_at >= self._control_period:
                 self._control.put(request.control)
                 self._control_sent = (version, now)
-            self._links[request.follower].poll(request.payload)
+            self._links[request.follower].poll(request.payload, request.poll_seq)
         self._hand_on()
 
     def _hand_on(self) -> None:
@@ -311,6 +319,9 @@ class LeaderNode:
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(self.keys.update(event.follower), event.reason)
+            elif isinstance(event, Silent) and not event.answered_before:
+                log.warning("follower %s has never answered a poll (no queryable, or no "
+                            "valid reply): probing it alone now", event.follower)
             elif isinstance(event, Silent):
                 log.warning("follower %s stopped answering (its last %d polls went "
                             "unanswered): probing it alone now", event.follower, event.polls)

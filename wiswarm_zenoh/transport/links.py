@@ -6,12 +6,16 @@ timeout: the core's timer ends the poll at the adaptive deadline, and the get st
 until the ceiling, so a reply that comes after that deadline still reaches the core and
 teaches it the link is slower than measured (``core.poll_timing``). Replies go to the
 callback given with each poll, on Zenoh's own thread (``indirect=False``): the leader's
-loop then waits on one inbox for every poll's replies, late ones included."""
+loop then waits on one inbox for every poll's replies, late ones included. Zenoh drops a
+get's callback when the get is over (no queryable matched, every replier sent its
+final, or the ceiling passed): that drop is the poll's end, reported with its sequence
+number (``on_end``), so a poll nobody can answer ends at once, not at its timer."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from typing import cast
 
 import zenoh
@@ -34,13 +38,16 @@ class FollowerLink:
     errors: int = 0  # replies refused here, before the core (error replies, oversized)
     _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
     querier: zenoh.Querier | None = field(default=None, repr=False)
-    _on_reply: zenoh.handlers.Callback[zenoh.Reply] | None = field(default=None, repr=False)
+    _on_reply: Callable[[zenoh.Reply], object] | None = field(default=None, repr=False)
+    _on_end: Callable[[FollowerLink, int], object] | None = field(default=None, repr=False)
 
     @classmethod
     def open(cls, session: zenoh.Session, keys: SwarmKeys, follower: str, ceiling: float,
-             on_reply: Callable[[FollowerLink, zenoh.Reply], object]) -> FollowerLink:
-        """Declare what polling ``follower`` needs; its gets end after ``ceiling`` s and
-        bring their replies to ``on_reply`` (one callback for all its polls)."""
+             on_reply: Callable[[FollowerLink, zenoh.Reply], object],
+             on_end: Callable[[FollowerLink, int], object]) -> FollowerLink:
+        """Declare what polling ``follower`` needs; its gets end after ``ceiling`` s at
+        the latest, bring their replies to ``on_reply`` and their end (with the poll's
+        sequence number) to ``on_end``."""
         key = keys.update(follower)
         link = cls(
             follower=follower,
@@ -58,8 +65,8 @@ class FollowerLink:
         )
         # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
         # with no thread kept per follower for it.
-        link._on_reply = zenoh.handlers.Callback(lambda reply: on_reply(link, reply),
-                                                 indirect=False)
+        link._on_reply = partial(on_reply, link)
+        link._on_end = on_end
         link._listener = link.fresh.declare_matching_listener(
             zenoh.handlers.Callback(link._on_matching, indirect=False)
         )
@@ -70,10 +77,14 @@ class FollowerLink:
         link.listening = status.matching
         return link
 
-    def poll(self, payload: bytes) -> None:
-        """Send a poll: its replies go to ``on_reply`` (see ``open``), on Zenoh's thread."""
-        assert self.querier is not None and self._on_reply is not None, "polled after close()"
-        self.querier.get(self._on_reply, payload=payload)
+    def poll(self, payload: bytes, poll_seq: int) -> None:
+        """Send poll ``poll_seq``: its replies and its end go to ``on_reply`` and
+        ``on_end`` (see ``open``), on Zenoh's thread."""
+        assert self.querier is not None and self._on_reply is not None \
+            and self._on_end is not None, "polled after close()"
+        handler = zenoh.handlers.Callback(self._on_reply, partial(self._on_end, self, poll_seq),
+                                          indirect=False)
+        self.querier.get(handler, payload=payload)
 
     def payload(self, reply: zenoh.Reply, limit: int, bad_input: BadInputLog) -> bytes | None:
         """A reply's bytes, or None for an error reply or one over ``limit`` bytes (counted

@@ -28,16 +28,17 @@ log = logging.getLogger(__name__)
 FORGET_AFTER = 60.0  # seconds a follower that left stays in the stats, its age growing
 
 ReplyHandler = Callable[[FollowerLink, zenoh.Reply], object]
+EndHandler = Callable[[FollowerLink, int], object]  # a poll's get is over (its sequence)
 
 
 class Membership:
     """The followers' links, kept in step with their tokens and with the core."""
 
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, ceiling: float,
-                 on_reply: ReplyHandler, wake: Callable[[], object], bad_input: BadInputLog,
-                 forget_after: float = FORGET_AFTER) -> None:
+                 on_reply: ReplyHandler, on_end: EndHandler, wake: Callable[[], object],
+                 bad_input: BadInputLog, forget_after: float = FORGET_AFTER) -> None:
         self._session, self._keys = session, keys
-        self._ceiling, self._on_reply, self._wake = ceiling, on_reply, wake
+        self._ceiling, self._on_reply, self._on_end, self._wake = ceiling, on_reply, on_end, wake
         self._bad_input = bad_input
         self._forget_after = forget_after
         self.links: dict[str, FollowerLink] = {}
@@ -71,7 +72,8 @@ class Membership:
                 self._departed_at.pop(follower, None)
                 if follower not in self.links:
                     self.links[follower] = FollowerLink.open(
-                        self._session, self._keys, follower, self._ceiling, self._on_reply)
+                        self._session, self._keys, follower, self._ceiling, self._on_reply,
+                        self._on_end)
                 log.info("follower %s joined", follower)
             elif follower in self.links and follower not in self._departed_at:
                 with lock:
