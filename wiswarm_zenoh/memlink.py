@@ -56,9 +56,12 @@ class MemoryLink:
         """One poll: answered or lost; the next poll goes out as it ends, as a shell
         does, and then the leader's events are taken."""
         self._sample_until(self.now)
-        request = self._request or self.leader.next_poll(self.now)
-        if request is None:
-            raise RuntimeError("no follower to poll")
+        while (request := self._request or self.leader.next_poll(self.now)) is None:
+            wake = self.leader.get_timer()  # no source due yet: wait for the first
+            if wake is None:
+                raise RuntimeError("no follower to poll")
+            self.now = wake
+            self._sample_until(self.now)
         arrival = self.now + self.latency
         if self.rng.random() < self.loss.get(request.follower, 0.0):
             self.now = request.deadline

@@ -15,6 +15,18 @@ def poll(leader: Leader, now: float) -> PollRequest:
     return request
 
 
+def poll_when_due(leader: Leader, now: float) -> PollRequest:
+    """The next poll, at ``now`` or, when no source is due yet (``sources``), at the
+    leader's timer: its ``sent_at`` says which."""
+    request = leader.next_poll(now)
+    if request is None:
+        wake = leader.get_timer()
+        assert wake is not None and wake > now
+        request = leader.next_poll(wake)
+    assert request is not None
+    return request
+
+
 def exchange(
     leader: Leader,
     followers: Mapping[str, Follower],

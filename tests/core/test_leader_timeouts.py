@@ -38,7 +38,7 @@ def test_timeout_lowers_p_hat_and_only_the_timer_ends_an_unanswered_poll() -> No
     assert (s.timeouts, s.polls) == (2, 3)
     assert s.p_hat == pytest.approx(0.9)
     exchange(leader, followers, 3.0)
-    assert leader.get_timer() is None
+    assert leader.in_flight is None
     assert on_timer(leader, 3.5) == []  # a valid reply came: answered
     assert leader.stats("a", 3.1).p_hat == pytest.approx(0.9)
     assert leader.stats("a", 3.1).timeouts == 2
@@ -63,6 +63,7 @@ def test_a_member_that_never_answered_is_silent_from_its_first_miss() -> None:
     silent_at = t = request.deadline
     followers["ghost"].offer(b"late frame", t)
     while (request := poll(leader, t)).follower != "ghost":  # probed after probe_interval
+        followers["a"].offer(b"frame", t)
         on_reply(leader, "a", followers["a"].on_poll(request.payload, t, t), t + 0.001)
         t += 0.05
     assert request.sent_at >= silent_at + leader.config.probe_interval
@@ -132,8 +133,10 @@ def _answered_once(config: LeaderConfig) -> tuple[Leader, dict[str, Follower], f
     leader, followers = _setup("a", "dead", config=config)
     t = 0.0
     while (request := poll(leader, t)).follower != "dead":
+        followers["a"].offer(b"x", t)
         answer(leader, followers, request, t)
         t += 0.002
+    followers["dead"].offer(b"last words", t)
     answer(leader, followers, request, t)
     return leader, dict(followers), t + 0.002
 
@@ -169,4 +172,4 @@ def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
     followers["dead"].offer(b"back", t)
     answer(leader, followers, request, t)
     assert leader.stats("dead", t + 0.01).p_hat == 0.5
-    assert leader.stats("dead", t + 0.01).deliveries == 1
+    assert leader.stats("dead", t + 0.01).deliveries == 2  # its last words, and now

@@ -73,8 +73,9 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
     """Two swarms fed the same frames: one leader takes every reply the usual way, the
     other on the fast path where it can. Both must poll the same followers in the same
     order and deliver the same updates. Returns how many polls took the fast path."""
-    usual, usual_followers = _swarm(n)
-    fast, fast_followers = _swarm(n)
+    config = LeaderConfig(pace_sources=False)  # polls that find nothing new stay in
+    usual, usual_followers = _swarm(n, config)
+    fast, fast_followers = _swarm(n, config)
     for leader in (usual, fast):
         for i, weight in enumerate(weights[:n]):
             leader.observe_urgency(f"uav{i}", weight)

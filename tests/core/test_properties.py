@@ -39,7 +39,7 @@ from wiswarm_zenoh.core.wire import (
     encode_reply,
 )
 
-from .drive import on_reply, on_timer
+from .drive import on_reply, on_timer, poll_when_due
 
 PROPS = settings(max_examples=200, deadline=None, derandomize=True)  # same examples in CI
 LATENCY = 0.001
@@ -104,8 +104,8 @@ def test_leader_and_follower_over_a_random_delivery_schedule(
             # the last poll, which timed out) taken only as a measure of the link
             events = on_reply(leader, "a", late.pop(0), t)
             assert all(isinstance(e, Stale) for e in events)
-        request = leader.next_poll(t)
-        assert request is not None
+        request = poll_when_due(leader, t)
+        t = request.sent_at
         if fate == "poll_lost":
             t = request.deadline
             assert on_timer(leader, t)
@@ -126,8 +126,8 @@ def test_leader_and_follower_over_a_random_delivery_schedule(
 
     for _ in range(20):  # the link heals: what is left (two updates at most) gets through
         t += 0.01
-        request = leader.next_poll(t)
-        assert request is not None
+        request = poll_when_due(leader, t)
+        t = request.sent_at
         consume(follower.on_poll(request.payload, t + LATENCY, t + LATENCY), t + 2 * LATENCY)
 
     stamps = [d.generated_at for d in delivered]

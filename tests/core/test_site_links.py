@@ -20,7 +20,8 @@ SITES = {"s1.a": "s1", "s1.b": "s1", "s2.c": "s2"}
 
 
 def _cloud() -> tuple[Leader, dict[str, Follower]]:
-    leader = Leader(LeaderConfig(window=WINDOW, timeout=0.05, adaptive_timeout=False))
+    leader = Leader(LeaderConfig(window=WINDOW, timeout=0.05, adaptive_timeout=False,
+                                 pace_sources=False))  # they answer "nothing new" here
     for follower, site in SITES.items():
         leader.add_follower(follower, 0.0, link=site)
     return leader, {f: Follower(f) for f in SITES}

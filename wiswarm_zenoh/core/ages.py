@@ -1,22 +1,46 @@
-"""Ages in slots, as the policies read them: the scheduler computes them on every poll."""
+"""Ages in slots, as the policies read them: the scheduler computes them on every poll.
+
+Each is the age a poll at ``now`` can remove (``sources.reducible_age``): the age of the
+freshest delivered update for a source taken as always fresh (due = -inf, the paper's
+assumption), 0 before a paced source is due, ``sqrt(A^2 - z^2)`` after.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from math import sqrt
 
 import numpy as np
 
 from wiswarm_zenoh.core.policies import FloatArray
 
 
-def ages_in_slots(taus: Sequence[float], now: float, slot: float) -> list[float]:
-    """Each age at ``now`` (0 for a time-stamp ahead of it), in slots; plain floats, no
-    ``max`` call per follower (the scheduler runs this on every poll)."""
-    return [(now - tau) / slot if now > tau else 0.0 for tau in taus]
+def ages_in_slots(taus: Sequence[float], dues: Sequence[float], intervals: Sequence[float],
+                  now: float, slot: float) -> list[float]:
+    """Each reducible age at ``now`` (0 for a time-stamp ahead of it), in slots; plain
+    floats, no call per follower where its source is taken as always fresh (the
+    scheduler runs this on every poll)."""
+    ages = []
+    for tau, due, interval in zip(taus, dues, intervals, strict=True):
+        age = now - tau
+        if age <= 0.0 or now < due:
+            ages.append(0.0)
+        elif interval > 0.0:
+            z = age % interval
+            ages.append(sqrt(age * age - z * z) / slot)
+        else:
+            ages.append(age / slot)
+    return ages
 
 
-def array_ages_in_slots(taus: FloatArray, now: float, slot: float) -> FloatArray:
+def array_ages_in_slots(taus: FloatArray, dues: FloatArray, intervals: FloatArray,
+                        now: float, slot: float) -> FloatArray:
     """``ages_in_slots`` for many followers, in one numpy pass (a new array)."""
     ages = np.maximum(now - taus, 0.0)
+    paced = intervals > 0.0
+    if paced.any():
+        z = np.where(paced, np.fmod(ages, np.where(paced, intervals, 1.0)), 0.0)
+        ages = np.sqrt(ages * ages - z * z)
+    ages[now < dues] = 0.0
     ages /= slot
     return ages

@@ -89,6 +89,11 @@ class LeaderConfig:
     cross a link that is not shared (a cloud leader polling edge leaders over a WAN,
     which answer from what they hold) keeps the link busy with a few: about
     (round trip + one update's time on the link) / that time.
+
+    ``pace_sources``: the index takes the age a poll can remove, from each source's
+    pace as its updates show it (``sources``): a follower whose source is slower than
+    the polls is polled when it is due, and no poll goes out while none is. False:
+    every source is taken as always fresh (the paper's index exactly).
     """
 
     policy: str = "whittle"
@@ -107,6 +112,7 @@ class LeaderConfig:
     timeout_floor: float = 0.01
     price_by_time: bool = True
     in_flight: int = 1
+    pace_sources: bool = True
 
     def __post_init__(self) -> None:
         from wiswarm_zenoh.core.policies import POLICIES

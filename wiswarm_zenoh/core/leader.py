@@ -13,7 +13,7 @@ from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale,
 from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.plausibility import implausible
-from wiswarm_zenoh.core.policies import make_policy
+from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
 from wiswarm_zenoh.core.poll_records import Pick, PollLife, PollRequest, Stage
 from wiswarm_zenoh.core.reply_work import settle_update, take_fragment
 from wiswarm_zenoh.core.scheduling import choose, pick_after
@@ -58,7 +58,9 @@ class Leader:
         self.config = config or LeaderConfig()
         self.epoch = epoch  # in every poll and control: followers tell leaders apart by it
         self.policy = make_policy(self.config.policy, rng)
-        self.table = PeerTable(self.config.weight_floor, self.config.price_by_time)
+        self.table = PeerTable(self.config.weight_floor, self.config.price_by_time,
+                               self.config.pace_sources)
+        self._pacing = self.config.pace_sources and isinstance(self.policy, IndexPolicy)
         self.unknown_replies = 0
         self.polls = 0
         self.fast_polls = 0  # polls sent on a pick made while the poll before was out
@@ -221,9 +223,12 @@ class Leader:
 
     def next_poll(self, now: float) -> PollRequest | None:
         """The poll to send now, put in flight; None while ``config.in_flight`` are out,
-        or nobody is left to poll."""
+        nobody is left to poll, or no poll can find anything new before ``get_timer()``
+        (every source paced and none due, no probe due: ``sources``)."""
         out = self._flights
         if len(out) >= self.config.in_flight or len(out) >= len(self.table.ids):
+            return None
+        if self._waits_for_sources(now):
             return None
         choice = self._quick_choice(now) if not out else None
         if choice is None:
@@ -251,10 +256,16 @@ class Leader:
         return None
 
     def get_timer(self) -> float | None:
-        """When ``handle_timer`` is due: the earliest deadline of the polls out, if any."""
-        if not self._flights:
-            return None
-        return min(life.request.deadline for life in self._flights.values())
+        """When ``handle_timer`` is due: the earliest deadline of the polls out, or,
+        while another poll may go out, when the first source or probe is due."""
+        flights = self._flights
+        wake = math.inf
+        if self._waits_for_sources(-math.inf) \
+                and len(flights) < min(self.config.in_flight, len(self.table.ids)):
+            wake = self.table.wake_at()
+        if flights:
+            wake = min(wake, min(life.request.deadline for life in flights.values()))
+        return wake if math.isfinite(wake) else None
 
     def stats(self, follower: str, now: float) -> FollowerStats:
         """One follower's figures, every reply so far taken (one that left: ageing)."""
@@ -264,6 +275,14 @@ class Leader:
         return self._peer(follower).stats(follower, now)
 
     # --- inside ---
+
+    def _waits_for_sources(self, now: float) -> bool:
+        """No poll can find anything new before ``table.wake_at()`` (after ``now``):
+        every live follower's source is paced and not due, no probe is due. (A swarm of
+        silent followers only is polled on, as without pacing: one that came back is
+        found at once.)"""
+        table = self.table
+        return self._pacing and table.silent < len(table) and table.wake_at() > now
 
     def _peer(self, follower: str) -> Peer:
         try:
@@ -318,6 +337,8 @@ class Leader:
         frag, peer = reply.fragment, life.peer
         if frag is not None and frag.count != 1:
             return None  # a fragment of a larger update: its want and ack change
+        if self._pacing and (frag is None or peer.pace.paced):
+            return None  # its pace decides when it is due again
         if self.site_links.shared(life.request.follower) \
                 and peer.reliability.after(True) != peer.reliability.value:
             return None  # the answer changes its site's p: the others' indices move too

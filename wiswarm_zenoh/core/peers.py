@@ -21,6 +21,7 @@ from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.estimators import ReliabilityEstimator, WeightEMA
 from wiswarm_zenoh.core.fragments import Reassembler
 from wiswarm_zenoh.core.poll_timing import PollTiming, SwarmPollTimes
+from wiswarm_zenoh.core.sources import SourcePace
 from wiswarm_zenoh.core.wire import Want
 
 IntArray = npt.NDArray[np.intp]
@@ -62,6 +63,7 @@ class Peer:
     clock: ClockOffsetEstimator
     reassembler: Reassembler
     timing: PollTiming
+    pace: SourcePace = field(default_factory=SourcePace)
     ack: tuple[int, int] | None = None
     idle_since: float = float("-inf")  # leader clock of its last "nothing new" answer
     unsettled_tau: float = float("-inf")  # an update taken, its checksum not verified yet
@@ -108,10 +110,9 @@ class Peer:
 
     @property
     def policy_tau(self) -> float:
-        """What the scheduler ages this follower from: its freshest delivery (counting one
-        taken but not yet settled), or the last time it had nothing newer to send
-        (polling it sooner cannot lower its age)."""
-        return max(self.aoi.tau, self.idle_since, self.unsettled_tau)
+        """What the scheduler ages this follower from: its freshest delivery, counting
+        one taken but not yet settled (when a poll can lower that age: ``pace``)."""
+        return max(self.aoi.tau, self.unsettled_tau)
 
     def late(self, poll_seq: int) -> float | None:
         """When its poll ``poll_seq`` was sent, if that poll went unanswered lately (and
@@ -127,6 +128,7 @@ class Peer:
         self.reassembler.reset()
         self.clock.reset()
         self.timing.reset()
+        self.pace.reset()
         self.timed_out.clear()
         self.ack = None
         self.want = "fresh"
@@ -146,18 +148,23 @@ PLAIN_LOOPS_MAX = 64  # followers up to which plain loops beat numpy (its cost p
 
 
 class PeerTable:
-    """Followers in join order, with the columns (w, p, tau, probe_at) the leader reads.
+    """Followers in join order, with the columns (w, p, tau, due, interval, probe_at) the
+    leader reads.
 
     ``w`` is each follower's weight raised to ``weight_floor`` (with ``price_by_time``,
     per unit of its polls' expected time: ``PollTiming.price``); ``tau`` its
-    ``policy_tau``: the scheduler's view of its freshness; ``probe_at`` is when a silent
-    follower is due for a probe (+inf if not silent); ``silent`` counts those with p = 0,
-    so that the common case (none) costs the scheduler no pass over the columns.
+    ``policy_tau``: the scheduler's view of its freshness; ``due`` and ``interval`` its
+    source's pace (``sources``: -inf and 0 for a source taken as always fresh, +inf for a
+    silent follower, whose probes ``probe_at`` times: when it is due for one, +inf if
+    not silent); ``silent`` counts those with p = 0, so that the common case (none)
+    costs the scheduler no pass over the columns.
     """
 
-    def __init__(self, weight_floor: float = 0.0, price_by_time: bool = False) -> None:
+    def __init__(self, weight_floor: float = 0.0, price_by_time: bool = False,
+                 pace_sources: bool = True) -> None:
         self.weight_floor = weight_floor
         self.price_by_time = price_by_time
+        self.pace_sources = pace_sources
         self.poll_times = SwarmPollTimes()  # every follower's answered polls
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
@@ -166,6 +173,8 @@ class PeerTable:
         self.w = array("d")
         self.p = array("d")
         self.tau = array("d")
+        self.due = array("d")
+        self.interval = array("d")
         self.probe_at = array("d")
 
     def __len__(self) -> int:
@@ -176,9 +185,11 @@ class PeerTable:
         """Few enough followers that plain loops over the columns beat numpy."""
         return len(self.ids) <= PLAIN_LOOPS_MAX
 
-    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """numpy views of w, p and tau (no copy: drop them before the next add or remove)."""
-        return np.frombuffer(self.w), np.frombuffer(self.p), np.frombuffer(self.tau)
+    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+        """numpy views of w, p, tau, due and interval (no copy: drop them before the next
+        add or remove)."""
+        return (np.frombuffer(self.w), np.frombuffer(self.p), np.frombuffer(self.tau),
+                np.frombuffer(self.due), np.frombuffer(self.interval))
 
     def index(self, follower: str) -> int:
         """Where ``follower`` is in the columns."""
@@ -189,6 +200,7 @@ class PeerTable:
         self.ids.append(follower)
         self.peers[follower] = peer
         for column, placeholder in ((self.w, 0.0), (self.p, 1.0), (self.tau, 0.0),
+                                    (self.due, 0.0), (self.interval, 0.0),
                                     (self.probe_at, 0.0)):
             column.append(placeholder)
         self.sync(follower)
@@ -198,7 +210,7 @@ class PeerTable:
         self.silent -= self.peers[follower].silent
         del self.ids[i], self.peers[follower]
         self._index = {fid: j for j, fid in enumerate(self.ids)}
-        del self.w[i], self.p[i], self.tau[i], self.probe_at[i]
+        del self.w[i], self.p[i], self.tau[i], self.due[i], self.interval[i], self.probe_at[i]
 
     def sync(self, follower: str) -> None:
         """Copy one follower's current estimates into the policy columns."""
@@ -210,8 +222,20 @@ class PeerTable:
         self.w[i] = (weight * peer.timing.price(peer.reliability.forgiving)
                      if self.price_by_time else weight)
         self.p[i] = p
-        self.tau[i] = peer.policy_tau
+        pace = peer.pace
+        paced = self.pace_sources and pace.paced
+        # not paced: aged from its last "nothing new" answer too (polling it sooner
+        # cannot lower its age); paced: its pace says when a poll can
+        self.tau[i] = peer.policy_tau if paced else max(peer.policy_tau, peer.idle_since)
+        self.due[i] = math.inf if p <= 0.0 else pace.due if paced else -math.inf
+        self.interval[i] = pace.interval if paced else 0.0
         self.probe_at[i] = peer.probe_at if p <= 0.0 else math.inf
+
+    def wake_at(self) -> float:
+        """When a poll is first worth sending: the earliest due source or probe."""
+        if self.plain_loops:
+            return min(min(self.due, default=math.inf), min(self.probe_at, default=math.inf))
+        return float(min(np.frombuffer(self.due).min(), np.frombuffer(self.probe_at).min()))
 
     def first_probe(self) -> int:
         """The silent follower due for a probe first (the smallest probe_at)."""

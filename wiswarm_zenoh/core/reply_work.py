@@ -23,6 +23,7 @@ def take_fragment(life: PollLife) -> list[Event]:
     follower, frag = request.follower, reply.fragment
     if frag is None:
         peer.idle_since = now
+        peer.pace.empty(now)
         return []
     try:
         whole = peer.reassembler.add(frag)
@@ -39,6 +40,7 @@ def take_fragment(life: PollLife) -> list[Event]:
         peer.errors += 1
         return [Rejected(follower, f"update stamped {ahead:.3f} s in the future")]
     peer.unsettled_tau = generated_at
+    peer.pace.taken(frag.update_seq, frag.generated_at, generated_at)
     life.stage, life.frag, life.whole, life.generated_at = \
         Stage.UNSETTLED, frag, whole, generated_at
     return []

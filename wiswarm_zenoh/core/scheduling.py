@@ -50,13 +50,16 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
         w: Sequence[float] = table.w
         p: Sequence[float] = table.p
         tau: Sequence[float] = table.tau
+        due: Sequence[float] = table.due
+        interval: Sequence[float] = table.interval
         if live is not None:
-            w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
-        return policy.choose_in_lists(w, p, ages_in_slots(tau, now, slot))
-    wa, pa, taua = table.arrays()
+            w, p, tau, due, interval = ([column[i] for i in live]
+                                        for column in (w, p, tau, due, interval))
+        return policy.choose_in_lists(w, p, ages_in_slots(tau, due, interval, now, slot))
+    wa, pa, taua, duea, intervala = table.arrays()
     if live is not None:
-        wa, pa, taua = wa[live], pa[live], taua[live]
-    return policy.choose(wa, pa, array_ages_in_slots(taua, now, slot))
+        wa, pa, taua, duea, intervala = (a[live] for a in (wa, pa, taua, duea, intervala))
+    return policy.choose(wa, pa, array_ages_in_slots(taua, duea, intervala, now, slot))
 
 
 def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, polled: int,
@@ -69,12 +72,13 @@ def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, pol
     if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
         return None
     if table.plain_loops:
-        values = policy.indices(table.w, table.p, ages_in_slots(table.tau, at, slot))
+        values = policy.indices(table.w, table.p,
+                                ages_in_slots(table.tau, table.due, table.interval, at, slot))
         values[polled] = -math.inf
         best = max(values)
         return Pick(poll_seq, at, values.index(best), best, policy.index)  # first of equals
-    wa, pa, taua = table.arrays()
-    indices = policy.index(wa, pa, array_ages_in_slots(taua, at, slot))
+    wa, pa, taua, duea, intervala = table.arrays()
+    indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, at, slot))
     indices[polled] = -np.inf
     choice = int(indices.argmax())
     return Pick(poll_seq, at, choice, float(indices[choice]), policy.index)

@@ -6,9 +6,9 @@ core ``Leader`` (its estimates of p, its probing of silent followers) polls N fo
 in slot time: an answer takes 1 slot, a timeout K. Some followers are dead (they answer
 their first poll, then never again: a member that never answered at all is silent from
 its first miss and costs one poll whatever the index), some intermittent (down for
-``outage`` slots out of every ``period``), the rest answer with probability p_i. Compared: the paper's index (``price_by_time`` off) and the
-index per unit of expected poll time (on), by the weighted mean AoI of the followers
-that are alive.
+``outage`` slots out of every ``period``), the rest answer with probability p_i.
+Compared: the paper's index (``price_by_time`` off) and the index per unit of expected
+poll time (on), by the weighted mean AoI of the followers that are alive.
 """
 
 from __future__ import annotations

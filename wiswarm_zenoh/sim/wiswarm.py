@@ -95,7 +95,11 @@ class WiswarmNetwork:
 
     def _poll(self) -> None:
         request = self.leader.next_poll(self._engine.now)
-        if request is None:
+        if request is None:  # no source due yet (or nobody to poll): wait for the timer
+            wake = self.leader.get_timer()
+            if wake is not None:
+                self._timer_version += 1
+                self._engine.at(wake, partial(self._on_timer, self._timer_version))
             return
         i = self._index[request.follower]
         leader = self._leader_station
