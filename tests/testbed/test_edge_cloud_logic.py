@@ -30,14 +30,15 @@ def test_the_floor_adds_the_edge_the_delay_and_the_wans_round_robin() -> None:
     assert floor.one_in_flight_s == pytest.approx(0.090 + 0.020 + 0.008 + 12 * 0.048 / 2)
 
 
-def test_the_default_plan_runs_one_leader_enough_to_fill_the_wan_and_one_per_pair() -> None:
+def test_the_default_plan_runs_one_enough_to_fill_the_wan_one_per_pair_and_auto() -> None:
     config = EdgeCloudConfig()
     s_wan = config.frame_time(50_000_000)
     assert s_wan == pytest.approx(224 * 224 * 8 * 1.04 / 50e6)
     assert config.wan_in_flight() == math.ceil((0.04 + s_wan) / s_wan) == 6
     assert [s.label for s in config.setups()] == [
-        "direct", "hierarchy x1", "hierarchy x6", "hierarchy x12", "edge alone"]
-    assert [s.in_flight for s in config.setups()] == [1, 1, 6, 12, 0]
+        "direct", "hierarchy x1", "hierarchy x6", "hierarchy x12", "hierarchy, K auto",
+        "edge alone"]
+    assert [s.in_flight for s in config.setups()] == [1, 1, 6, 12, "auto", 0]
     assert EdgeCloudConfig(in_flight=(3,)).setups()[1] == Setup("hierarchy", 3)
     assert EdgeCloudConfig(sites=1, followers=2).wan_in_flight() == 2  # at most one per pair
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.options import (
-    COUNTS,
+    IN_FLIGHTS,
     RATE,
     TIME,
     ProgressBar,
@@ -87,10 +87,11 @@ def register_edge_cloud(studies: Any) -> None:
                         help="the WAN links' rate each way, e.g. 50mbit (default 50mbit)")
     parser.add_argument("--delay", type=TIME, default=0.02, metavar="TIME",
                         help="the WAN's one-way delay, e.g. 20ms (default 20ms)")
-    parser.add_argument("--in-flight", type=COUNTS, metavar="K,K",
+    parser.add_argument("--in-flight", type=IN_FLIGHTS, metavar="K,K",
                         help="hierarchies to run, by the polls the cloud leader keeps in "
-                        "flight on the WAN, e.g. 1,6 (default: 1, the number that keeps the "
-                        "WAN busy, (2 delay + frame time) / frame time, and one per pair)")
+                        "flight on the WAN, e.g. 1,6,auto (default: 1, the number that keeps "
+                        "the WAN busy, (2 delay + frame time) / frame time, one per pair, "
+                        "and auto: the leader finds it)")
     parser.add_argument("--duration", type=positive_float(), default=15.0,
                         help="seconds measured per setup (default 15)")
     parser.add_argument("--warmup", type=positive_float(), default=5.0,

@@ -31,6 +31,7 @@ from wiswarm_zenoh.baselines import (
 from wiswarm_zenoh.baselines import SYSTEMS as BASELINES
 from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.options import (
+    IN_FLIGHT,
     UsageError,
     add_zenoh_arguments,
     finite_float,
@@ -272,11 +273,14 @@ def register(subparsers: Any) -> None:
                         help="wiswarm: the shortest a follower's adaptive timeout gets "
                         f"(default {defaults.timeout_floor}); raise it where hosts stall "
                         "for longer (hundreds of followers sharing a small machine)")
-    leader.add_argument("--in-flight", type=positive_int(64), metavar="K",
+    leader.add_argument("--in-flight", type=IN_FLIGHT, metavar="K|auto",
                         help="wiswarm: polls out at once, each to another follower (default "
                         "1, the paper's rule: right wherever the polls share a radio "
-                        "channel). A cloud leader polling edge leaders over a WAN keeps it "
-                        "busy with about (round trip + one update's time) / that time")
+                        "channel or one bottleneck). auto: the leader finds the number from "
+                        "its throughput and keeps adjusting it (stays at 1 on a shared "
+                        "channel, climbs where polls wait out round trips a link could "
+                        "fill: a cloud leader over a WAN); use a fixed K where it is known, "
+                        "about (round trip + one update's time) / that time")
     leader.add_argument("--window", type=positive_int(),
                         help="wiswarm: polls over which each follower's reliability is "
                         f"estimated (default {defaults.window})")

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 QueueKind = Literal["lifo", "fifo"]
+InFlight = int | Literal["auto"]  # polls out at once, or "auto": the leader finds it
 DropRule = Literal["tail", "head"]
 
 # Bytes of a fragment that are not payload (msgpack map of the reply); a fragment size
@@ -88,7 +89,9 @@ class LeaderConfig:
     and the only right one where the polls share a radio channel. A leader whose polls
     cross a link that is not shared (a cloud leader polling edge leaders over a WAN,
     which answer from what they hold) keeps the link busy with a few: about
-    (round trip + one update's time on the link) / that time.
+    (round trip + one update's time on the link) / that time. ``"auto"``: the leader
+    finds that number from its throughput and keeps adjusting it (``in_flight``); on
+    a shared channel it stays at 1.
 
     ``pace_sources``: the index takes the age a poll can remove, from each source's
     pace as its updates show it (``sources``): a follower whose source is slower than
@@ -111,7 +114,7 @@ class LeaderConfig:
     adaptive_timeout: bool = True
     timeout_floor: float = 0.01
     price_by_time: bool = True
-    in_flight: int = 1
+    in_flight: InFlight = 1
     pace_sources: bool = True
 
     def __post_init__(self) -> None:
@@ -123,8 +126,9 @@ class LeaderConfig:
             self.timeout,
         )
         _require(self.window >= 1, "window", "an integer >= 1", self.window)
-        _require(type(self.in_flight) is int and self.in_flight >= 1, "in_flight",
-                 "an integer >= 1", self.in_flight)
+        _require(self.in_flight == "auto" or (type(self.in_flight) is int
+                                                and self.in_flight >= 1),
+                 "in_flight", "an integer >= 1 or 'auto'", self.in_flight)
         _require(0.0 <= self.prior_p <= 1.0, "prior_p", "in [0, 1]", self.prior_p)
         _require(
             math.isfinite(self.probe_interval) and self.probe_interval > 0,

@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale, TimedOut, drain
+from wiswarm_zenoh.core.in_flight import InFlightTuner
 from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.plausibility import implausible
@@ -35,7 +36,8 @@ SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted pol
 
 class Leader:
     """Sans-I/O leader (paper, Section II-D): one poll in flight at a time (or
-    ``config.in_flight``, each to another follower, where the link is not shared).
+    ``config.in_flight``, each to another follower, where the link is not shared; or as
+    many as ``in_flight.InFlightTuner`` finds worth it).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
     membership (``add_/remove_/forget_follower``), ``receive_reply(follower, data, now)``
@@ -76,6 +78,7 @@ class Leader:
         self._picked_for = 0  # the poll a pick was last tried for
         self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
         self.site_links = SiteLinks()
+        self.tuner = InFlightTuner() if self.config.in_flight == "auto" else None
 
     @property
     def followers(self) -> list[str]:
@@ -85,6 +88,15 @@ class Leader:
     def departed(self) -> list[str]:
         """Followers that left and are not forgotten: polled no more, their age growing."""
         return list(self._departed)
+
+    @property
+    def polls_allowed(self) -> int:
+        """Polls it keeps out at most now: ``config.in_flight``, or the tuner's."""
+        tuner = self.tuner
+        if tuner is not None:
+            return tuner.current
+        assert self.config.in_flight != "auto"
+        return self.config.in_flight
 
     @property
     def in_flight(self) -> str | None:
@@ -226,7 +238,7 @@ class Leader:
         nobody is left to poll, or no poll can find anything new before ``get_timer()``
         (every source paced and none due, no probe due: ``sources``)."""
         out = self._flights
-        if len(out) >= self.config.in_flight or len(out) >= len(self.table.ids):
+        if len(out) >= self.polls_allowed or len(out) >= len(self.table.ids):
             return None
         if self._waits_for_sources(now):
             return None
@@ -247,7 +259,7 @@ class Leader:
         if self._events:
             return self._events.popleft()
         life = next(iter(self._flights.values())) if len(self._flights) == 1 else None
-        if life is not None and self.config.in_flight == 1 \
+        if life is not None and self.polls_allowed == 1 \
                 and self._picked_for != life.request.poll_seq:
             self._picked_for = life.request.poll_seq
             self._pick = pick_after(self.table, self.policy, self.slot, life.request.poll_seq,
@@ -261,7 +273,7 @@ class Leader:
         flights = self._flights
         wake = math.inf
         if self._waits_for_sources(-math.inf) \
-                and len(flights) < min(self.config.in_flight, len(self.table.ids)):
+                and len(flights) < min(self.polls_allowed, len(self.table.ids)):
             wake = self.table.wake_at()
         if flights:
             wake = min(wake, min(life.request.deadline for life in flights.values()))
@@ -401,6 +413,8 @@ class Leader:
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
         if answered:
             peer.timing.answered(duration)
+        if self.tuner is not None:
+            self.tuner.completed(answered, now, len(self.table.ids))
         cfg = self.config
         before = peer.reliability.value
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)

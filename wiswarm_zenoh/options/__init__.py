@@ -5,6 +5,8 @@ the one-line error, progress for long runs, and the testbed's flags."""
 from wiswarm_zenoh.options.arguments import (
     CONNECT_ENDPOINT,
     COUNTS,
+    IN_FLIGHT,
+    IN_FLIGHTS,
     LISTEN_ENDPOINT,
     PROBABILITIES,
     RATE,
@@ -41,6 +43,8 @@ from wiswarm_zenoh.usage import OneLineParser, UsageError
 __all__ = [
     "CONNECT_ENDPOINT",
     "COUNTS",
+    "IN_FLIGHT",
+    "IN_FLIGHTS",
     "LISTEN_ENDPOINT",
     "PROBABILITIES",
     "RATE",

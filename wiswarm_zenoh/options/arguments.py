@@ -17,6 +17,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Generic, TypeVar
 
+from wiswarm_zenoh.core.config import InFlight
+from wiswarm_zenoh.core.in_flight import MOST as MOST_IN_FLIGHT
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES
 from wiswarm_zenoh.sim.sweep import PAPER_RATES
 from wiswarm_zenoh.transport.keys import check_follower, check_name
@@ -236,6 +238,14 @@ SEED = integer(0)  # numpy's generators take no negative seed
 RATE = ArgType("rate", parse_rate)  # a link's, in tc's spelling: 20mbit
 TIME = ArgType("time", parse_seconds)  # in tc's spelling: 200ms
 COUNTS = listed(positive_int(), "2,4,8")  # numbers of UAVs
+
+
+def _polls_in_flight(text: str) -> InFlight:
+    return "auto" if text.strip() == "auto" else positive_int(MOST_IN_FLIGHT).parse(text)
+
+
+IN_FLIGHT = ArgType("int", _polls_in_flight)  # --in-flight K, or auto
+IN_FLIGHTS = listed(IN_FLIGHT, "1,6,auto")
 FRAME_RATES = listed(positive_float(), "1,3,5")  # frames per second
 PROBABILITIES = float_range(finite_float(0.0, 1.0))
 

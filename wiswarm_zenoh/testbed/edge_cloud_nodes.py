@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from wiswarm_zenoh.core import Delivered, LeaderConfig
+from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.testbed.edge_cloud_topology import RelaySpec
 from wiswarm_zenoh.testbed.relay import DelayRelay
 from wiswarm_zenoh.transport.edge import Upstream
@@ -66,7 +67,7 @@ class LeadersOptions:
     parents: tuple[tuple[str, str], ...] = ()
     site: str | None = None
     name: str = "leader"
-    in_flight: int = 1
+    in_flight: InFlight = 1
 
     def __post_init__(self) -> None:
         if self.parents and (len(self.swarms) != 1 or self.site is None):

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.sim.metrics import FollowerMetrics
 from wiswarm_zenoh.testbed.edge_cloud_nodes import LeadersOptions, run_leaders, run_relays
 from wiswarm_zenoh.testbed.edge_cloud_topology import (
@@ -62,20 +63,20 @@ class Setup:
     polls in flight) or ``edge`` (no cloud)."""
 
     kind: str
-    k: int = 1
+    k: InFlight = 1
 
     @property
     def label(self) -> str:
         return {"direct": "direct", "edge": "edge alone"}.get(
-            self.kind, f"hierarchy x{self.k}")
+            self.kind, "hierarchy, K auto" if self.k == "auto" else f"hierarchy x{self.k}")
 
     @property
     def tag(self) -> str:
         return {"direct": "d", "edge": "e"}.get(self.kind, f"h{self.k}")
 
     @property
-    def in_flight(self) -> int:
-        """Polls in flight on the WAN."""
+    def in_flight(self) -> InFlight:
+        """Polls in flight on the WAN (``auto``: as the cloud leader finds)."""
         return 0 if self.kind == "edge" else self.k
 
 
@@ -87,7 +88,7 @@ class EdgeCloudConfig:
     followers: int = 6
     local: ChannelSpec = field(default_factory=ChannelSpec)
     wan: WanSpec = field(default_factory=WanSpec)
-    in_flight: tuple[int, ...] | None = None  # None: 1, wan_in_flight() and pairs
+    in_flight: tuple[InFlight, ...] | None = None  # None: 1, wan_in_flight(), pairs, auto
     duration: float = 15.0
     warmup: float = 5.0
     frame_bytes: int = FRAME_BYTES
@@ -105,7 +106,7 @@ class EdgeCloudConfig:
         if self.frame_bytes < FRAME_HEADER_BYTES:
             raise ValueError(f"frame_bytes must be >= {FRAME_HEADER_BYTES} (the frame's "
                              f"counter and capture time), got {self.frame_bytes}")
-        bad = [k for k in self.in_flight or () if not 1 <= k <= self.pairs]
+        bad = [k for k in self.in_flight or () if k != "auto" and not 1 <= k <= self.pairs]
         if bad:
             raise ValueError(f"in_flight must each be in [1, {self.pairs}] (one per "
                              f"(site, follower) pair at most), got {bad[0]}")
@@ -126,7 +127,8 @@ class EdgeCloudConfig:
         return min(self.pairs, math.ceil((2 * self.wan.delay_s + s_wan) / s_wan))
 
     def setups(self) -> list[Setup]:
-        ks = self.in_flight or tuple(dict.fromkeys((1, self.wan_in_flight(), self.pairs)))
+        ks = self.in_flight or tuple(dict.fromkeys((1, self.wan_in_flight(), self.pairs,
+                                                    "auto")))
         return [Setup("direct"), *(Setup("hierarchy", k) for k in ks), Setup("edge")]
 
     @property
