@@ -333,6 +333,8 @@ class Leader:
         if sent_at is None:
             self._events.append(Stale(follower, f"reply to poll {reply.poll_seq}, not one out"))
             return
+        # A follower silent since its first poll stays so until a probe is answered: a
+        # late reply proves nothing of who sent it (no clock of it is known to judge by).
         peer.timing.answered(now - sent_at)
         self.table.sync(follower)
 

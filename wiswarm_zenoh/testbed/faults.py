@@ -129,14 +129,15 @@ class FaultySwarm:
                 self.followers[name] = Process(name, [
                     "follower", "--id", name, "--frame-bytes", str(self._frame_bytes),
                     *extra, *self._node_flags()], self._env)
-            self.leader = Process("leader", ["leader", "--record", str(self.record),
+            # -v: the leader's INFO lines too (a follower answering again is normal life)
+            self.leader = Process("leader", ["-v", "leader", "--record", str(self.record),
                                              "--name", "leader", *self._node_flags()],
                                   self._env)
             for process in (*self.followers.values(), self.leader):
                 process.wait_for("(Ctrl-C to stop)")
             for name in self._standby_names:  # one by one: each younger than the last
                 self.standbys[name] = Process(name, [
-                    "leader", "--record", str(self._record_of(name)), "--name", name,
+                    "-v", "leader", "--record", str(self._record_of(name)), "--name", name,
                     *self._node_flags()], self._env)
                 self.standbys[name].wait_for(f"leader {name} stands by")
         except BaseException:

@@ -13,6 +13,7 @@ again, and a rate changed on the channel (``wiswarm testbed set``) is noted when
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import multiprocessing
 import threading
@@ -28,7 +29,8 @@ from wiswarm_zenoh.baselines import (
     run_baseline_followers,
     run_receiver,
 )
-from wiswarm_zenoh.core import AoITracker
+from wiswarm_zenoh.core import AoITracker, LeaderConfig
+from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
@@ -63,6 +65,10 @@ class RunSpec:
     warmup: float = 5.0
     frame_bytes: int = FRAME_BYTES
     batch: int = 0
+    in_flight: InFlight = 1  # WiSwarm's polls out at once (``--in-flight``)
+    slow: int = 0  # WiSwarm: the last ``slow`` followers' cameras run at ``slow_rate``
+    slow_rate: float = 5.0
+    pace_sources: bool = True  # False: the paper's index (every source taken as fresh)
 
     def __post_init__(self) -> None:
         if self.system not in SYSTEMS:
@@ -74,10 +80,24 @@ class RunSpec:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not self.warmup >= 0:
             raise ValueError(f"warmup must be >= 0, got {self.warmup}")
+        if not 0 <= self.slow <= self.n:
+            raise ValueError(f"slow must be in [0, n], got {self.slow}")
 
     @property
     def label(self) -> str:
-        return "wiswarm" if self.system == "wiswarm" else f"{self.system}@{self.rate:g}"
+        if self.system != "wiswarm":
+            return f"{self.system}@{self.rate:g}"
+        variant = [f"k{self.in_flight}" if self.in_flight != 1 else "",
+                   f"slow{self.slow}@{self.slow_rate:g}" if self.slow else "",
+                   "" if self.pace_sources else "papers-index"]
+        return "-".join(["wiswarm", *filter(None, variant)])
+
+    def leader_config(self) -> LeaderConfig:
+        return LeaderConfig(in_flight=self.in_flight, pace_sources=self.pace_sources)
+
+    def camera_rate(self, i: int) -> float:
+        """Follower ``i``'s camera rate (frames/s)."""
+        return self.slow_rate if i >= self.n - self.slow else self.rate
 
     @property
     def followers(self) -> list[str]:
@@ -126,15 +146,35 @@ def read_record(path: Path) -> dict[str, list[tuple[float, float]]]:
     return rows
 
 
+def stats_file(record: Path) -> Path:
+    """Where a WiSwarm run's leader leaves its followers' last stats."""
+    return record.with_suffix(".stats.json")
+
+
+def poll_counters(record: Path) -> dict[str, float]:
+    """A WiSwarm run's polls, and those that found nothing new (neither a delivery nor
+    a timeout: every frame here fits one reply), from its leader's last stats."""
+    path = stats_file(record)
+    if not path.exists():
+        return {}
+    stats = json.loads(path.read_text())
+    polls = sum(s["polls"] for s in stats)
+    empty = sum(s["polls"] - s["deliveries"] - s["timeouts"] - s["errors"] for s in stats)
+    return {"polls": float(polls), "empty_polls": float(max(empty, 0))}
+
+
 def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Path) -> None:
     """Router and receiver on the leader side, then the followers across the channel."""
     children.start("router", run_in, place.leader_ns, run_router, place.router())
     followers = spec.followers
     if spec.system == "wiswarm":
         children.start("leader", run_in, place.leader_ns, run_leader, place.leader(),
-                       LeaderOptions(SWARM, record=str(record), record_capture_stamps=True))
+                       LeaderOptions(SWARM, spec.leader_config(), record=str(record),
+                                     record_capture_stamps=True,
+                                     stats_file=str(stats_file(record))))
         options = [FollowerOptions(SWARM, f, frame_bytes=spec.frame_bytes,
-                                   frame_rate=spec.rate) for f in followers]
+                                   frame_rate=spec.camera_rate(i))
+                   for i, f in enumerate(followers)]
         children.start("followers", run_in, place.follower_ns, run_followers,
                        place.follower(), options)
         return
@@ -216,6 +256,7 @@ def measure(channel: Channel, spec: RunSpec, workdir: Path,
         "downlink_drops": float(down1.dropped - down0.dropped),
         "uplink_backlog_kb": (sum(watch.backlog) / len(watch.backlog) / 1e3
                               if watch.backlog else 0.0),
+        **poll_counters(record),
     }
     result = WifiResult(system=spec.system, n=spec.n,
                         rate=None if spec.system == "wiswarm" else spec.rate,

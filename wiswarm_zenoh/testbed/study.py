@@ -26,7 +26,7 @@ from pathlib import Path
 
 from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.testbed.channel import Channel
-from wiswarm_zenoh.testbed.run import SYSTEMS, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.run import SYSTEMS, WISWARM_SAMPLE_RATE, RunOutcome, RunSpec, measure
 from wiswarm_zenoh.testbed.spec import ChannelSpec
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
@@ -68,7 +68,7 @@ class StudyConfig:
         self.spec("wiswarm", self.ns[0], None, 0)  # the run's own checks
 
     def spec(self, system: str, n: int, rate: float | None, batch: int) -> RunSpec:
-        return RunSpec(system, n, **({} if rate is None else {"rate": rate}),
+        return RunSpec(system, n, WISWARM_SAMPLE_RATE if rate is None else rate,
                        duration=self.duration, warmup=self.warmup,
                        frame_bytes=self.frame_bytes, batch=batch)
 

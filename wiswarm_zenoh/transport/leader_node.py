@@ -320,14 +320,14 @@ class LeaderNode:
             elif isinstance(event, Rejected | Stale):
                 self.bad_input.report(self.keys.update(event.follower), event.reason)
             elif isinstance(event, Silent) and not event.answered_before:
-                log.warning("follower %s has never answered a poll (no queryable, or no "
-                            "valid reply): probing it alone now", event.follower)
+                log.info("follower %s has not answered its first poll (not up yet, no "
+                         "queryable, or no valid reply): probing it alone", event.follower)
             elif isinstance(event, Silent):
                 log.warning("follower %s stopped answering (its last %d polls went "
                             "unanswered): probing it alone now", event.follower, event.polls)
             elif isinstance(event, Answering):
-                log.warning("follower %s answers again, after %.1f s", event.follower,
-                            event.silent_for)
+                log.info("follower %s answers again, after %.1f s", event.follower,
+                         event.silent_for)
 
     def _apply_changes(self) -> None:
         for follower, joined in self._membership.apply(self._leader, self._lock, self._clock()):

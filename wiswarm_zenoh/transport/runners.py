@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import json
 import logging
 import multiprocessing
 import signal
@@ -15,6 +16,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from types import FrameType
 from typing import Any, Protocol
 
@@ -218,6 +220,7 @@ class LeaderOptions:
     control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
+    stats_file: str | None = None  # JSON of each follower's last stats, written at exit
     name: str | None = None  # the leader's name among its swarm's leaders (see election)
     upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
     site: str | None = None  # its name there (followers appear as <site>.<follower>)
@@ -250,6 +253,9 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
             if upstream is not None:
                 upstream.set_control = node.set_control
             _lead(node, session, options, stop, ready, show)
+        if options.stats_file is not None:
+            Path(options.stats_file).write_text(json.dumps(
+                [stats.as_dict() for stats in node.latest], indent=1))
     finally:
         if record is not None:
             record.close()
