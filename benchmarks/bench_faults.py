@@ -12,6 +12,11 @@ others kept getting from the leader's record:
   back;
 - a follower killed mid-update (8 kB fragments of 50 kB frames): the others' rate, and no
   update delivered twice;
+- ``rogue``: with 3 followers (20 kB frames at 100 Hz), a member that never gives a
+  valid answer joins (a token with no queryable, a hung queryable, one replying garbage;
+  a churn of hung ones, a new name every second for 8 s): the others' delivery rate
+  over the 6 s after it joins and over its first second, against the 3 s before
+  (targets >= 0.95 and >= 0.80; churn >= 0.90);
 - ``sim``: the slotted model with faults (``sim.faults``): the index per unit of expected
   poll time against the paper's, by the weighted mean AoI of the live followers, over K
   (slots a timeout costs) and the share of dead or intermittent followers (N = 14);
@@ -36,6 +41,9 @@ from wiswarm_zenoh.sim.faults import FaultSpec, run_faults
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.scenario import WifiScenario, run_wifi
 from wiswarm_zenoh.testbed.faults import FaultySwarm, first_after, rate
+from wiswarm_zenoh.testbed.rogues import KINDS
+from wiswarm_zenoh.transport import SessionSpec
+from wiswarm_zenoh.transport.keys import SwarmKeys
 
 SETTLE = 3.0  # seconds of normal polling before a fault: the baseline window
 
@@ -111,6 +119,30 @@ def killed_mid_update() -> None:
           f"{twice or 'none'}; the leader said f2 left: {left}")
 
 
+def rogues() -> None:
+    names = ["f0", "f1", "f2"]
+    print("\na member that never answers joins 3 followers (20 kB frames, 100 Hz): the "
+          "others' delivery rate, against the 3 s before")
+    for kind, rogue in KINDS.items():
+        window = 8.0 if kind == "churn" else 6.0
+        with tempfile.TemporaryDirectory() as tmp, \
+                FaultySwarm(Path(tmp), names, frame_bytes=20_000) as swarm, \
+                SessionSpec.loopback("client", connect_ports=[swarm.port]).open() as session:
+            swarm.wait_deliveries(names, 20)
+            time.sleep(SETTLE)  # the baseline window
+            joined = time.time()
+            with rogue(session, SwarmKeys("swarm")):
+                time.sleep(window)
+            done = swarm.deliveries()
+        before = rate(done, names, joined - SETTLE, joined)
+        first = rate(done, names, joined, joined + 1.0)
+        after = rate(done, names, joined, joined + window)
+        target = "0.90" if kind == "churn" else "0.95; first second >= 0.80"
+        print(f"  {kind:15s}: {after:5.0f}/s over {window:g} s ({after / before:.2f}), "
+              f"{first:5.0f}/s in the first second ({first / before:.2f}), against "
+              f"{before:.0f}/s before (targets >= {target})")
+
+
 def simulated(seeds: int, slots: int) -> None:
     print(f"\nslotted model with faults, N = 14, {seeds} seeds x {slots} slots: weighted mean "
           "AoI of the live followers (slots), paper's index -> priced index (ratio)")
@@ -156,8 +188,8 @@ def live_mean_aoi(result: WifiResult, dead: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--stop", type=float, default=5.0, help="seconds a follower is stopped")
-    parser.add_argument("--cases", nargs="+", default=["stop", "router", "kill", "sim", "wifi"],
-                        choices=["stop", "router", "kill", "sim", "wifi"])
+    cases = ["stop", "router", "kill", "rogue", "sim", "wifi"]
+    parser.add_argument("--cases", nargs="+", default=cases, choices=cases)
     parser.add_argument("--seeds", type=int, default=10, help="sim: runs per cell")
     parser.add_argument("--slots", type=int, default=50_000, help="sim: slots per run")
     parser.add_argument("--wifi-seconds", type=float, default=20.0,
@@ -170,6 +202,8 @@ def main() -> None:
         router_restart()
     if "kill" in args.cases:
         killed_mid_update()
+    if "rogue" in args.cases:
+        rogues()
     if "sim" in args.cases:
         simulated(args.seeds, args.slots)
     if "wifi" in args.cases:

@@ -12,15 +12,14 @@ rates against the targets."""
 
 from __future__ import annotations
 
-import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from functools import partial
 
 import pytest
 import zenoh
 
 from wiswarm_zenoh.core import LeaderConfig
+from wiswarm_zenoh.testbed.rogues import KINDS, churn
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode
 from wiswarm_zenoh.transport.keys import SwarmKeys
 
@@ -31,62 +30,6 @@ KEYS = SwarmKeys(SWARM)
 REAL = ["f0", "f1", "f2"]
 FRAME = b"\x42" * 20_000
 WINDOW = 1.5  # seconds measured before and while the rogue is there
-
-
-@contextmanager
-def token_only(session: zenoh.Session) -> Iterator[None]:
-    token = session.liveliness().declare_token(KEYS.member("ghost"))
-    yield
-    token.undeclare()
-
-
-@contextmanager
-def hung(session: zenoh.Session) -> Iterator[None]:
-    held: list[zenoh.Query] = []  # never answered, never dropped: no final either
-    queryable = session.declare_queryable(KEYS.update("ghost"), held.append)
-    with token_only(session):
-        yield
-    queryable.undeclare()
-    held.clear()
-
-
-@contextmanager
-def garbage(session: zenoh.Session) -> Iterator[None]:
-    def on_query(query: zenoh.Query) -> None:
-        with query:
-            query.reply(KEYS.update("ghost"), b"\xc1 not msgpack at all")
-
-    queryable = session.declare_queryable(KEYS.update("ghost"), on_query)
-    with token_only(session):
-        yield
-    queryable.undeclare()
-
-
-@contextmanager
-def churn(session: zenoh.Session) -> Iterator[None]:
-    """A new never-answering name every 0.25 s (a hung queryable behind each)."""
-    stop = threading.Event()
-
-    def run() -> None:
-        k = 0
-        while not stop.is_set():
-            key = KEYS.update(f"ghost{k}")
-            queryable = session.declare_queryable(key, lambda query: None)
-            token = session.liveliness().declare_token(KEYS.member(f"ghost{k}"))
-            stop.wait(0.25)
-            token.undeclare()
-            queryable.undeclare()
-            k += 1
-
-    thread = threading.Thread(target=run)
-    thread.start()
-    yield
-    stop.set()
-    thread.join()
-
-
-KINDS: dict[str, Callable[[zenoh.Session], contextmanager[None]]] = {  # type: ignore[type-arg]
-    "token only": token_only, "hung queryable": hung, "garbage": garbage, "churn": churn}
 
 
 def _delivered(recorder: Recorder, start: float, end: float) -> int:
@@ -112,7 +55,8 @@ def test_a_member_that_never_answers_barely_slows_the_others(
         start = time.time()
         time.sleep(WINDOW)  # measuring a rate over a window: no event ends it
         joined = time.time()
-        with KINDS[kind](sessions.node(port, "client")):
+        rogue = partial(churn, period=0.25) if kind == "churn" else KINDS[kind]
+        with rogue(sessions.node(port, "client"), KEYS):
             recorder.wait("the rogue joined", lambda r: any(j.startswith("ghost")
                                                             for j in r.joins))
             time.sleep(WINDOW)
