@@ -18,7 +18,8 @@ end with ``now``.
 
 from __future__ import annotations
 
-PERIOD_POLLS = 32  # completed polls a period takes at least
+PERIOD_POLLS = 16  # completed polls a period takes at least
+PERIOD_ROUNDS = 6  # and rounds of K (K polls out: answers come K a round trip apart)
 PERIOD_S = 0.25  # and seconds
 MARGIN = 0.03  # how much lower J must be to keep one more poll out
 MAX_GAP = 16  # periods between trials, at most
@@ -43,7 +44,8 @@ class InFlightTuner:
         self._settling = 0  # polls sent before K changed, still to end: not measured
 
     def completed(self, answered: bool, now: float, followers: int) -> None:
-        """A poll ended at ``now`` (``answered`` or not), ``followers`` in the swarm."""
+        """A poll ended at ``now``, ``answered`` with something (an update or a part of
+        one: an answer with nothing new is no throughput), ``followers`` in the swarm."""
         if self._settling:
             self._settling -= 1
             self._started = now
@@ -55,7 +57,8 @@ class InFlightTuner:
         elapsed = now - self._started
         k = self.current
         # whole rounds of K: with K out, answers come in bursts of K a round trip apart
-        if self._polls < -(-PERIOD_POLLS // k) * k or elapsed < PERIOD_S or self._polls % k:
+        least = max(-(-PERIOD_POLLS // k) * k, PERIOD_ROUNDS * k)
+        if self._polls < least or elapsed < PERIOD_S or self._polls % k:
             return
         j = (followers / 2 + k) / max(self._answered / elapsed, 1e-9)
         self._started, self._polls, self._answered = now, 0, 0

@@ -315,6 +315,8 @@ class Leader:
             peer.timed_out.append((request.poll_seq, request.sent_at))
         was_silent = peer.silent
         self._complete(request, peer, answered=False, now=now)
+        if self.tuner is not None:
+            self.tuner.completed(False, now, len(self.table.ids))
         peer.timeouts += 1
         self.table.sync(request.follower)
         self._events.append(TimedOut(request.follower, request.poll_seq))
@@ -407,6 +409,8 @@ class Leader:
         self._complete(request, peer, answered=True, now=now)
         peer.clock.add(request.sent_at, reply.received_at, reply.sent_at, now)
         self._events.extend(take_fragment(life))
+        if self.tuner is not None:  # the answers that carry something are the throughput
+            self.tuner.completed(reply.fragment is not None, now, len(self.table.ids))
         self.table.sync(request.follower)
 
     def _complete(self, request: PollRequest, peer: Peer, answered: bool, now: float) -> None:
@@ -415,8 +419,6 @@ class Leader:
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
         if answered:
             peer.timing.answered(duration)
-        if self.tuner is not None:
-            self.tuner.completed(answered, now, len(self.table.ids))
         cfg = self.config
         before = peer.reliability.value
         peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)

@@ -61,7 +61,7 @@ class StatsRounds:
                 link = links.get(follower)
                 if link is not None:  # not gone since the round began
                     batch.append(follower_stats(leader.stats(follower, now), link.errors))
-            polls, epoch = leader.polls, leader.epoch
+            polls, epoch, in_flight = leader.polls, leader.epoch, leader.polls_allowed
         for record in batch:
             links[record.follower].stats.put(to_json(record.as_dict()))
         self._records += batch
@@ -72,7 +72,7 @@ class StatsRounds:
         mark_time, mark_polls = self._mark
         rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
         summary = LeaderSummary.of(self._records, rate, self._policy, now - self._started,
-                                   self._name, epoch)
+                                   self._name, epoch, in_flight)
         self._publisher.put(to_json(summary.as_dict()))
         self.latest, self.summary = self._records, summary
         self._mark = (now, polls)

@@ -27,22 +27,24 @@ class LeaderSummary:
     uptime_s: float
     leader: str = ""  # the active leader's name (see ``election``)
     epoch: int = 0  # its epoch: it grows at every takeover
+    in_flight: int = 1  # polls it keeps out now (with --in-flight auto: as it found)
 
     @classmethod
-    def of(cls, records: Sequence[FollowerStats], polls_per_s: float,
-           policy: str, uptime_s: float, leader: str = "", epoch: int = 0) -> LeaderSummary:
+    def of(cls, records: Sequence[FollowerStats], polls_per_s: float, policy: str,
+           uptime_s: float, leader: str = "", epoch: int = 0,
+           in_flight: int = 1) -> LeaderSummary:
         present = [r for r in records if r.present]  # those that left: in their own stats
         means = [r.mean_aoi_s for r in present]
         return cls(
             followers=[r.follower for r in present], polls_per_s=polls_per_s,
             mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
-            uptime_s=uptime_s, leader=leader, epoch=epoch,
+            uptime_s=uptime_s, leader=leader, epoch=epoch, in_flight=in_flight,
         )
 
     def as_dict(self) -> dict[str, object]:
         return {"followers": self.followers, "polls_per_s": self.polls_per_s,
                 "mean_aoi_s": self.mean_aoi_s, "policy": self.policy, "uptime_s": self.uptime_s,
-                "leader": self.leader, "epoch": self.epoch}
+                "leader": self.leader, "epoch": self.epoch, "in_flight": self.in_flight}
 
 
 def to_json(record: dict[str, object] | dict[str, float | int | str]) -> bytes:
