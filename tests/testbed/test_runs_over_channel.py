@@ -44,6 +44,18 @@ def test_wiswarm_frames_cross_the_shaped_link_and_stay_fresh(tmp_path: Path) -> 
     assert outcome.complete and not outcome.events
 
 
+def test_on_the_shared_channel_in_flight_auto_keeps_one_poll_out(tmp_path: Path) -> None:
+    """Every poll crosses the one shaped uplink: a second poll out would only queue
+    behind the first (throughput about 1.1 x at N = 3, where it must be 1.4 x to pay),
+    so the leader keeps one, and the frames still cross and stay fresh."""
+    with Channel() as channel:
+        outcome = measure(channel, RunSpec("wiswarm", 3, in_flight="auto", duration=4.0,
+                                           warmup=1.5), tmp_path)
+    _frames_crossed(outcome)
+    assert outcome.result.channel["in_flight"] == 1.0
+    assert outcome.result.mean("mean_aoi_s") < 0.15
+
+
 def test_push_frames_cross_the_shaped_link(tmp_path: Path) -> None:
     with Channel() as channel:
         outcome = measure(channel, RunSpec("push-block", 2, rate=10.0, duration=3.0,

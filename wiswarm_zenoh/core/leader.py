@@ -91,10 +91,17 @@ class Leader:
 
     @property
     def polls_allowed(self) -> int:
-        """Polls it keeps out at most now: ``config.in_flight``, or the tuner's."""
+        """Polls it keeps out at most now: ``config.in_flight``, or the tuner's (a trial's
+        K during a trial)."""
         tuner = self.tuner
-        if tuner is not None:
-            return tuner.current
+        return self.in_flight_limit if tuner is None else tuner.current
+
+    @property
+    def in_flight_limit(self) -> int:
+        """The polls it keeps out, trials aside: ``config.in_flight``, or what the tuner
+        found."""
+        if self.tuner is not None:
+            return self.tuner.limit
         assert self.config.in_flight != "auto"
         return self.config.in_flight
 

@@ -152,15 +152,18 @@ def stats_file(record: Path) -> Path:
 
 
 def poll_counters(record: Path) -> dict[str, float]:
-    """A WiSwarm run's polls, and those that found nothing new (neither a delivery nor
-    a timeout: every frame here fits one reply), from its leader's last stats."""
+    """A WiSwarm run's polls, those that found nothing new (neither a delivery nor a
+    timeout: every frame here fits one reply), and the polls its leader kept out at the
+    end, from its leader's last stats."""
     path = stats_file(record)
     if not path.exists():
         return {}
-    stats = json.loads(path.read_text())
+    last = json.loads(path.read_text())
+    stats = last["followers"]
     polls = sum(s["polls"] for s in stats)
     empty = sum(s["polls"] - s["deliveries"] - s["timeouts"] - s["errors"] for s in stats)
-    return {"polls": float(polls), "empty_polls": float(max(empty, 0))}
+    return {"polls": float(polls), "empty_polls": float(max(empty, 0)),
+            "in_flight": float(last["leader"]["in_flight"])}
 
 
 def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Path) -> None:

@@ -220,7 +220,7 @@ class LeaderOptions:
     control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
-    stats_file: str | None = None  # JSON of each follower's last stats, written at exit
+    stats_file: str | None = None  # JSON of the last stats (leader, followers), at exit
     name: str | None = None  # the leader's name among its swarm's leaders (see election)
     upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
     site: str | None = None  # its name there (followers appear as <site>.<follower>)
@@ -255,7 +255,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
             _lead(node, session, options, stop, ready, show)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
-                [stats.as_dict() for stats in node.latest], indent=1))
+                {"leader": node.summary.as_dict(),
+                 "followers": [stats.as_dict() for stats in node.latest]}, indent=1))
     finally:
         if record is not None:
             record.close()

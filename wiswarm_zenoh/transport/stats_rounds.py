@@ -61,7 +61,7 @@ class StatsRounds:
                 link = links.get(follower)
                 if link is not None:  # not gone since the round began
                     batch.append(follower_stats(leader.stats(follower, now), link.errors))
-            polls, epoch, in_flight = leader.polls, leader.epoch, leader.polls_allowed
+            polls, epoch, in_flight = leader.polls, leader.epoch, leader.in_flight_limit
         for record in batch:
             links[record.follower].stats.put(to_json(record.as_dict()))
         self._records += batch
