@@ -1,6 +1,7 @@
 """The tracking demo: an embedded router, N UAV processes (spawn) and the leader here.
 
-Order of events: the router comes up; the UAVs build the seeded world and open their
+Order of events: over the shared link in user space its relay comes up first, in a
+process of its own; the router comes up; the UAVs build the seeded world and open their
 sessions, then report ready (started together by the transport's `Children`, which
 also stops them all on the way out); this process opens the leader's session, its
 vision thread and transport (polling or push); the world epoch is set a warm-up ahead and
