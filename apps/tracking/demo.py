@@ -116,8 +116,9 @@ class DemoOptions:
             raise ValueError(f"channel kind must be one of {CHANNEL_KINDS}, got "
                              f"{self.channel_kind!r}")
         if self.dashboard_port is not None and self.namespaces:
-            raise ValueError("the dashboard cannot run with --channel: its page would listen "
-                             "inside the leader's network namespace (add --no-dashboard)")
+            raise ValueError("the dashboard cannot run with --channel tbf: its page would "
+                             "listen inside the leader's network namespace (add "
+                             "--no-dashboard)")
         self.world_config()  # the world must fit the UAVs' cars
 
     @property
