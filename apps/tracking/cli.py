@@ -79,7 +79,8 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--motion", choices=MOTIONS, default="random_walk",
                         help="how the cars drive")
     parser.add_argument("--mode", choices=("peer", "client"), default="peer",
-                        help="Zenoh mode of the leader and UAVs (the router is embedded)")
+                        help="Zenoh mode of the leader and UAVs on bare loopback (the "
+                        "router is embedded); across a channel the UAVs are its clients")
     parser.add_argument("--policy", choices=sorted(POLICIES), default="whittle",
                         help="the leader's polling policy (wiswarm)")
     parser.add_argument("--warmup", type=finite_float(0.0), default=2.0,
