@@ -1,6 +1,7 @@
 """The tracking demo: an embedded router, N UAV processes (spawn) and the leader here.
 
-Order of events: the router comes up; the UAVs build the seeded world and open their
+Order of events: over the shared link in user space its relay comes up first, in a
+process of its own; the router comes up; the UAVs build the seeded world and open their
 sessions, then report ready (started together by the transport's `Children`, which
 also stops them all on the way out); this process opens the leader's session, its
 vision thread and transport (polling or push); the world epoch is set a warm-up ahead and
@@ -38,7 +39,15 @@ from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
-from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
+from wiswarm_zenoh.testbed import (
+    Channel,
+    ChannelSpec,
+    Placement,
+    UserChannel,
+    entered,
+    run_in,
+    run_link,
+)
 from wiswarm_zenoh.transport import (
     Children,
     LeaderNode,
@@ -56,6 +65,8 @@ RESULT_TIMEOUT_S = 15.0
 CHECK_PERIOD = 0.25  # seconds between checks, while waiting for results, that UAVs live
 DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
 FRAME_SIZES = (224, 160)  # stationary runs / flights
+ChannelKind = Literal["user", "tbf"]
+CHANNEL_KINDS: tuple[ChannelKind, ...] = ("user", "tbf")
 
 
 @dataclass(frozen=True)
@@ -75,7 +86,8 @@ class DemoOptions:
     warmup_s: float = 2.0
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
-    channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
+    channel: ChannelSpec | None = None  # the UAVs behind a shared channel of this shape
+    channel_kind: ChannelKind = "tbf"  # tbf: namespaces (root); user: a relay on loopback
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
 
     def __post_init__(self) -> None:
@@ -100,10 +112,19 @@ class DemoOptions:
             raise ValueError(f"policy must be one of {sorted(POLICIES)}, got {self.policy!r}")
         if not (math.isfinite(self.warmup_s) and 0.5 <= self.warmup_s <= 60):
             raise ValueError(f"warm-up must be in [0.5, 60] s, got {self.warmup_s!r}")
-        if self.dashboard_port is not None and self.channel is not None:
-            raise ValueError("the dashboard cannot run with --channel: its page would listen "
-                             "inside the leader's network namespace (add --no-dashboard)")
+        if self.channel_kind not in CHANNEL_KINDS:
+            raise ValueError(f"channel kind must be one of {CHANNEL_KINDS}, got "
+                             f"{self.channel_kind!r}")
+        if self.dashboard_port is not None and self.namespaces:
+            raise ValueError("the dashboard cannot run with --channel tbf: its page would "
+                             "listen inside the leader's network namespace (add "
+                             "--no-dashboard)")
         self.world_config()  # the world must fit the UAVs' cars
+
+    @property
+    def namespaces(self) -> bool:
+        """Whether the run builds the tbf channel's network namespaces (root)."""
+        return self.channel is not None and self.channel_kind == "tbf"
 
     @property
     def rate(self) -> float:
@@ -180,14 +201,20 @@ class _Sides:
     leader: SessionSpec
     leader_ns: str | None = None  # None: all on this host's loopback
     uav_ns: str | None = None
+    link: UserChannel | None = None  # the user-space link's relay, started first
 
 
 def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
-    """Loopback, or the two sides of an emulated channel built for this run."""
+    """Loopback, the two ends of a user-space link, or the two sides of an emulated
+    channel built for this run."""
     if options.channel is None:
         port = free_tcp_port()
         uav = SessionSpec.loopback(options.mode, connect_ports=[port])
         return _Sides(SessionSpec.loopback("router", port), uav, uav)
+    if options.channel_kind == "user":
+        link = UserChannel.on_free_ports(options.channel)
+        log.info("%s", link.describe())
+        return _Sides(link.router(), link.follower(), link.leader(), link=link)
     channel = stack.enter_context(Channel(options.channel))
     log.info("%s", channel.describe())
     place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
@@ -210,6 +237,8 @@ def run(options: DemoOptions) -> DemoRun:
     with ExitStack() as stack:
         sides = _sides(options, stack)
         children = stack.enter_context(Children(ctx))
+        if sides.link is not None:
+            children.start("link", run_link, sides.link)
         _start(children, "router", sides.leader_ns, run_router, sides.router)
         links: dict[str, UavLink] = {}
         for index, uav in enumerate(options.uav_ids):

@@ -1,5 +1,7 @@
 """The emulated shared channel (Linux, root): network namespaces joined by a veth pair
-shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air.
+shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air;
+and the same shape without root (``UserChannel``: a relay on loopback with one token
+bucket and FIFO per direction).
 """
 
 from wiswarm_zenoh.testbed.channel import (
@@ -18,6 +20,7 @@ from wiswarm_zenoh.testbed.spec import (
     unavailable_reason,
 )
 from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
+from wiswarm_zenoh.testbed.user_channel import UserChannel, run_link
 
 __all__ = [
     "Channel",
@@ -25,6 +28,7 @@ __all__ = [
     "LinkCounters",
     "Placement",
     "TestbedUnavailable",
+    "UserChannel",
     "best_of_grid",
     "check_available",
     "cleanup_leftovers",
@@ -33,6 +37,7 @@ __all__ = [
     "list_channels",
     "remove_channel",
     "run_in",
+    "run_link",
     "share_fps",
     "unavailable_reason",
 ]
