@@ -128,18 +128,21 @@ class Leader:
         back = self._departed.pop(follower, None)
         if back is not None:
             back.restart()
+            back.left_at = None
         peer = back or Peer.new(self.config, now, self.table.poll_times)
         if link is not None:
             self.site_links.attach(follower, peer, link)
         self.table.add(follower, peer)
 
-    def remove_follower(self, follower: str) -> None:
-        """A follower left (its liveliness token went): it is polled no more, its poll
-        and replies are dropped. Its record stays, ageing (``stats``, ``departed``), as
-        nothing fresh comes from it, until ``forget_follower`` or its return."""
+    def remove_follower(self, follower: str, now: float | None = None) -> None:
+        """A follower left (its liveliness token went) at ``now``: it is polled no more,
+        its poll and replies are dropped. Its record stays, ageing (``stats``,
+        ``departed``), as nothing fresh comes from it, until ``forget_follower`` or its
+        return; its mean and p95 AoI stay those of its time present."""
         peer = self.table.peers.get(follower)
         if peer is None:
             return
+        peer.left_at = now
         self._flights.pop(follower, None)
         self._waiting = deque(life for life in self._waiting
                               if life.request.follower != follower)

@@ -74,6 +74,7 @@ class Peer:
     timed_out: deque[tuple[int, float]] = field(
         default_factory=lambda: deque(maxlen=LATE_KEPT))
     silent_since: float = 0.0  # when it last went silent
+    left_at: float | None = None  # when its token went (None: present, or not told)
     want: Want = "next"
     polls: int = 0
     timeouts: int = 0
@@ -134,9 +135,12 @@ class Peer:
         self.want = "fresh"
 
     def stats(self, follower: str, now: float, present: bool = True) -> FollowerStats:
+        """Its figures at ``now``: its age grows after it left, its mean, p95 and peak
+        are those of its time present."""
+        until = now if present or self.left_at is None else min(now, self.left_at)
         return FollowerStats(
-            follower=follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(now),
-            p95_aoi_s=self.aoi.percentile(0.95, now), peak_aoi_s=self.aoi.peak(now),
+            follower=follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(until),
+            p95_aoi_s=self.aoi.percentile(0.95, until), peak_aoi_s=self.aoi.peak(until),
             p_hat=self.reliability.value, weight=self.weight.value, polls=self.polls,
             deliveries=self.aoi.deliveries, timeouts=self.timeouts, errors=self.errors,
             stale=self.stale, clock_offset_s=self.clock.offset, present=present,

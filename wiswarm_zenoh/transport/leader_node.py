@@ -52,6 +52,7 @@ from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.transport.stats_rounds import StatsRounds
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
+from wiswarm_zenoh.units import format_epoch
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -261,11 +262,12 @@ class LeaderNode:
         control the leader before left), or stand by."""
         self._active = self._election.leading
         if not self._active:
-            log.warning("leader %s stands by (an older leader is active: %s)", self.name,
+            log.info("leader %s stands by (an older leader is active: %s)", self.name,
                         self._election.active[1])
         else:
             self._raise_epoch(take_state=True)
-            log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
+            log.info("leader %s is active, epoch %s", self.name,
+                     format_epoch(self._leader.epoch))
         if self._on_role is not None:
             _notify(self._on_role, self._active)
 

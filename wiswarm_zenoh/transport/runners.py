@@ -158,7 +158,8 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         feeds, watches = [], []
         for option in options:
             session = stack.enter_context(spec.open())
-            watches.append(RouterWatch(session, f"follower {option.follower_id}"))
+            watches.append(RouterWatch(session, f"follower {option.follower_id}",
+                                       spec.connect))
             node = stack.enter_context(
                 FollowerNode(session, option.swarm, option.follower_id, option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
@@ -252,7 +253,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 control_period=options.control_period, name=options.name)
             if upstream is not None:
                 upstream.set_control = node.set_control
-            _lead(node, session, options, stop, ready, show)
+            _lead(node, session, spec.connect, options, stop, ready, show)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
@@ -276,14 +277,14 @@ def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream |
         upstream.close()
 
 
-def _lead(node: LeaderNode, session: zenoh.Session, options: LeaderOptions,
-          stop: StopSignal, ready: ReadySignal | None,
+def _lead(node: LeaderNode, session: zenoh.Session, endpoints: Sequence[str],
+          options: LeaderOptions, stop: StopSignal, ready: ReadySignal | None,
           show: Callable[[LeaderNode], None] | None) -> None:
     """Run ``node`` until stopped; ``show`` it a few times a second."""
     with node:
         if ready is not None:
             ready.set()
-        watch = RouterWatch(session, f"leader of {options.swarm!r}")
+        watch = RouterWatch(session, f"leader of {options.swarm!r}", endpoints)
 
         def tick() -> None:
             watch.check()
