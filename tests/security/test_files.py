@@ -70,9 +70,13 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
         ("reply", "ingress", KEYS.update("f1")), ("query", "egress", KEYS.update("f1")),
         ("liveliness_token", "ingress", KEYS.member("f1")),
         ("declare_subscriber", "ingress", KEYS.control), ("put", "egress", KEYS.control)}
-    observer = _allowed(_rules_of(router, "o1"))
-    assert {m for m, _, _ in observer} == {"declare_subscriber", "put"}
-    assert {f for m, f, _ in observer if m == "put"} == {"egress"}
+    observer = _allowed(_rules_of(router, "o1"))  # read-only: what the dashboard and
+    assert {m for m, f, _ in observer if f == "ingress"} == {  # wiswarm record read
+        "declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"}
+    assert {k for m, f, k in observer if m == "declare_subscriber"} == {
+        KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh, f"{KEYS.prefix}/leader/deliveries",
+        f"{KEYS.prefix}/*/tracking"}
+    assert {f for m, f, _ in observer if m in ("put", "liveliness_token")} == {"egress"}
     leader = _allowed(_rules_of(router, "leader"))
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {
         KEYS.control, KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh,

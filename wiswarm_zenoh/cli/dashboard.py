@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
+import socket
 import threading
 from typing import Any
 
@@ -35,9 +36,19 @@ def _address(text: str) -> str:
     return text
 
 
+def _port_free(host: str, port: int) -> None:
+    """OSError if ``port`` cannot be listened on: found at once, not after the session's
+    scouting (seconds) as when the page's server finds it."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        probe.bind((host, port))
+
+
 def serve(spec: SessionSpec, swarm: str, port: int, host: str) -> Dashboard:
     """The dashboard, or the reason it cannot listen as one line."""
     try:
+        _port_free(host, port)
         return Dashboard.open(spec, swarm, port, host)
     except OSError as exc:
         raise UsageError(f"cannot serve on {host} port {port}: "

@@ -83,8 +83,16 @@ def access_control(roster: Roster) -> dict[str, Any]:
         _rule("followers-subscribe-control", ["declare_subscriber"], INGRESS, [keys.control]),
         _rule("followers-get-control", ["put"], EGRESS, [keys.control]),
     ]
-    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, watched),
-                      _rule("observers-get-data", ["put"], EGRESS, watched)]
+    # Read-only: what the dashboard and ``wiswarm record`` show (stats, fresh updates,
+    # deliveries, the tracking records, who leads and who is a member), nothing sent.
+    observed = [*watched, deliveries, f"{p}/*/tracking"]
+    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, observed),
+                      _rule("observers-get-data", ["put"], EGRESS, observed),
+                      _rule("observers-watch-tokens", ["declare_liveliness_subscriber",
+                                                       "liveliness_query"], INGRESS,
+                            [keys.members, leaders]),
+                      _rule("observers-see-tokens", ["liveliness_token"], EGRESS,
+                            [keys.members, leaders])]
     groups = [("leader", [roster.leader], leader_rules)]
     if roster.followers:
         groups.append(("followers", list(roster.followers), follower_rules))
