@@ -75,7 +75,7 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
         "declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"}
     assert {k for m, f, k in observer if m == "declare_subscriber"} == {
         KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh, f"{KEYS.prefix}/leader/deliveries",
-        f"{KEYS.prefix}/*/tracking"}
+        f"{KEYS.prefix}/*/tracking", "wiswarm/experiments/*/points"}
     assert {f for m, f, _ in observer if m in ("put", "liveliness_token")} == {"egress"}
     leader = _allowed(_rules_of(router, "leader"))
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from wiswarm_zenoh.transport.keys import SwarmKeys, check_follower, check_name
+from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_follower, check_name
 
 ROUTER = "router"
 INGRESS, EGRESS = "ingress", "egress"
@@ -84,8 +84,9 @@ def access_control(roster: Roster) -> dict[str, Any]:
         _rule("followers-get-control", ["put"], EGRESS, [keys.control]),
     ]
     # Read-only: what the dashboard and ``wiswarm record`` show (stats, fresh updates,
-    # deliveries, the tracking records, who leads and who is a member), nothing sent.
-    observed = [*watched, deliveries, f"{p}/*/tracking"]
+    # deliveries, the tracking records, experiments' points, who leads and who is a
+    # member), nothing sent.
+    observed = [*watched, deliveries, f"{p}/*/tracking", f"{ROOT}/experiments/*/points"]
     observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, observed),
                       _rule("observers-get-data", ["put"], EGRESS, observed),
                       _rule("observers-watch-tokens", ["declare_liveliness_subscriber",
