@@ -158,12 +158,12 @@ function connect(attempt = 0) {
 
 function frame() {
   const now = leaderNow();
-  sawtooth.draw(now);
+  const present = status !== null && status.leader_alive && leader !== null
+    ? new Set(leader.followers) : null;
+  sawtooth.draw(now, present);
   const page = pageNow();
   if (page - tableAt >= TABLE_PERIOD_S) {
     tableAt = page;
-    const present = status !== null && status.leader_alive && leader !== null
-      ? new Set(leader.followers) : null;
     const names = new Set([...sawtooth.traces.keys(), ...table.stats.keys()]);
     table.render(names, (f) => sawtooth.age(f), colourOf, present);
     map.draw(page);
