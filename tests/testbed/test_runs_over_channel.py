@@ -93,7 +93,7 @@ def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
         killer.join()
         timer.join()
     events = " ".join(outcome.events)
-    assert "followers process ended" in events
+    assert "followers process was killed by signal 9; started again" in events
     assert "20mbit/20mbit -> 5mbit/5mbit" in events
     assert all(f.deliveries >= 5 for f in outcome.result.followers)  # the run went on
 
