@@ -9,10 +9,13 @@ below that share (link rate / (N x frame bits)), measures the next rate up, and 
 towards the better side until a rate is worse than the one before it: a bracket of
 three neighbours, usually two to four runs instead of ten.
 
-Runs go to ``parallel`` workers, each with a channel of its own (the channels are
-independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per channel the
-CPU is not what limits a run). A run's measurements are kept as they complete, so a
-study cut short by Ctrl-C reports what it measured.
+Runs go to ``parallel`` workers at once, every run on a channel built for it alone (the
+channels are independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per
+channel the CPU is not what limits a run). Fresh namespaces, not one channel per worker:
+runs that share a namespace share its kernel state, and a UDP run at 50 fps leaves the
+reassembly memory full of incomplete datagrams for 30 s, which makes the next run's UDP
+deliver nothing (``reassembly.py``). A run's measurements are kept as they complete, so
+a study cut short by Ctrl-C reports what it measured.
 """
 
 from __future__ import annotations
@@ -149,12 +152,20 @@ class StudyResults:
             self.outcomes.append(outcome)
 
 
+def measure_fresh(channel: ChannelSpec, spec: RunSpec, workdir: Path,
+                  stop: threading.Event) -> RunOutcome:
+    """``spec`` measured on a channel built for it and removed after it: namespaces in
+    the state the kernel makes them, nothing left by the run before (see module)."""
+    with Channel(channel) as fresh:
+        return measure(fresh, spec, workdir, stop)
+
+
 def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int], None],
               stop: threading.Event | None = None) -> StudyResults:
     """Run every job of the plan on ``config.parallel`` channels; returns what was
     measured, also when Ctrl-C or ``stop`` ends it midway (``interrupted``; the runs in
-    progress are kept, over the window they measured). Each channel is removed when
-    its worker ends."""
+    progress are kept, over the window they measured). Each run's channel is removed
+    when the run ends."""
     stop = stop or threading.Event()
     results = StudyResults()
     jobs: queue.SimpleQueue[Job] = queue.SimpleQueue()
@@ -163,40 +174,36 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
     completed = [0]
     failures: list[BaseException] = []
 
-    def run_on(channel: Channel) -> Measure:
-        def run(spec: RunSpec) -> RunOutcome:
-            if stop.is_set():
-                raise _Stopped
-            outcome = measure(channel, spec, workdir, stop)
-            if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
-                raise _Stopped
-            results.add(outcome)
-            with results.lock:
-                completed[0] += 1
-                progress(completed[0], max(config.estimated_runs, completed[0]))
-            for event in outcome.events:
-                log.warning("%s N=%d: %s", spec.label, spec.n, event)
-            if not outcome.complete:
-                raise _Stopped
-            return outcome
-        return run
+    def run(spec: RunSpec) -> RunOutcome:
+        if stop.is_set():
+            raise _Stopped
+        outcome = measure_fresh(config.channel, spec, workdir, stop)
+        if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
+            raise _Stopped
+        results.add(outcome)
+        with results.lock:
+            completed[0] += 1
+            progress(completed[0], max(config.estimated_runs, completed[0]))
+        for event in outcome.events:
+            log.warning("%s N=%d: %s", spec.label, spec.n, event)
+        if not outcome.complete:
+            raise _Stopped
+        return outcome
 
     def worker(done: threading.Event) -> None:
         try:
-            with Channel(config.channel) as channel:
-                run = run_on(channel)
-                while not stop.is_set():
-                    try:
-                        job = jobs.get_nowait()
-                    except queue.Empty:
-                        return
-                    if job.search:
-                        best = best_rate(config, job, run)
-                        with results.lock:
-                            results.best[(job.system, job.n, job.batch)] = best
-                    else:
-                        rate = None if job.system == "wiswarm" else config.fixed_rate
-                        run(config.spec(job.system, job.n, rate, job.batch))
+            while not stop.is_set():
+                try:
+                    job = jobs.get_nowait()
+                except queue.Empty:
+                    return
+                if job.search:
+                    best = best_rate(config, job, run)
+                    with results.lock:
+                        results.best[(job.system, job.n, job.batch)] = best
+                else:
+                    rate = None if job.system == "wiswarm" else config.fixed_rate
+                    run(config.spec(job.system, job.n, rate, job.batch))
         except _Stopped:
             return
         except BaseException as exc:  # reported by the caller, after every worker ended
