@@ -56,6 +56,8 @@ ALLOWED_BY_FLAG: dict[str, dict[str, str]] = {
     "--seed": {"0": "seed 0 is the default"},
     "leader --alpha": {"0": "an EMA factor in [0, 1]"},
     "leader --control-period": {"0": "0 puts control information with every poll"},
+    "--ros-domain": {"0": "ROS's default domain"},
+    "--ros-namespace": {"/nonexistent/dir/file": "a ROS namespace of three tokens"},
     "experiment testbed --warmup": {"0": "no warm-up: the window opens at once"},
 }
 # Values for required flags while another flag is tried, by kind.

@@ -8,6 +8,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -15,6 +16,7 @@ from pathlib import Path
 from apps.tracking import demo
 from apps.tracking.plots import write_plots
 from apps.tracking.report import summarise, summary_lines, write_outputs
+from apps.tracking.ros2 import FrameAdapter
 from apps.tracking.uav_app import SYSTEMS
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
@@ -25,10 +27,12 @@ from wiswarm_zenoh.options import (
     SEED,
     TIME,
     UsageError,
+    add_ros2_arguments,
     finite_float,
     positive_float,
     positive_int,
     require_testbed,
+    ros2_options,
     writable_dir,
 )
 from wiswarm_zenoh.testbed import ChannelSpec
@@ -72,6 +76,7 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         f"on port {DEFAULT_PORT}, or a free one, and prints its URL; not "
                         "with --channel, where it would listen inside a namespace)")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
+    add_ros2_arguments(parser)  # the demo's adapter by default: frames as images, poses
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -88,11 +93,14 @@ def options_from(args: argparse.Namespace) -> demo.DemoOptions:
     try:
         channel = None if args.channel is None else ChannelSpec(
             rate_bps=args.channel, queue_s=args.channel_queue)
+        ros2 = ros2_options(args)
+        if ros2 is not None and ros2.adapter is None:
+            ros2 = dataclasses.replace(ros2, adapter=FrameAdapter())
         return demo.DemoOptions(
             uavs=args.uavs, duration_s=args.duration, seed=args.seed, system=args.system,
             rate_hz=args.rate, frame_px=args.frame_size, vehicle=args.vehicle,
             motion=args.motion, mode=args.mode, policy=args.policy, warmup_s=args.warmup,
-            live=not args.no_live, channel=channel,
+            live=not args.no_live, channel=channel, ros2=ros2,
             dashboard_port=None if args.no_dashboard or channel is not None else DEFAULT_PORT,
         )
     except ValueError as exc:

@@ -38,6 +38,7 @@ from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
+from wiswarm_zenoh.ros2 import Ros2Options
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
 from wiswarm_zenoh.transport import (
     Children,
@@ -77,6 +78,7 @@ class DemoOptions:
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
+    ros2: Ros2Options | None = None  # the leader is also a ROS 2 node
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -100,6 +102,8 @@ class DemoOptions:
             raise ValueError(f"policy must be one of {sorted(POLICIES)}, got {self.policy!r}")
         if not (math.isfinite(self.warmup_s) and 0.5 <= self.warmup_s <= 60):
             raise ValueError(f"warm-up must be in [0.5, 60] s, got {self.warmup_s!r}")
+        if self.ros2 is not None and self.system != "wiswarm":
+            raise ValueError("--ros2 is for --system wiswarm: the push baseline has no leader")
         if self.dashboard_port is not None and self.channel is not None:
             raise ValueError("the dashboard cannot run with --channel: its page would listen "
                              "inside the leader's network namespace (add --no-dashboard)")
@@ -158,7 +162,8 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
     """The leader's transport: a LeaderNode polling, or the push baseline's subscriber."""
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
-        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered) as node:
+        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered,
+                        bridge=options.ros2) as node:
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,

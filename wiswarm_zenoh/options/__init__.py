@@ -27,6 +27,7 @@ from wiswarm_zenoh.options.arguments import (
     writable_file,
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
+from wiswarm_zenoh.options.ros2 import add_ros2_arguments, ros2_options
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
@@ -54,6 +55,7 @@ __all__ = [
     "add_channel_arguments",
     "add_rate_grid",
     "add_rates",
+    "add_ros2_arguments",
     "add_zenoh_arguments",
     "channel_spec",
     "finite_float",
@@ -69,6 +71,7 @@ __all__ = [
     "positive_float",
     "positive_int",
     "require_testbed",
+    "ros2_options",
     "show_written",
     "writable_dir",
     "writable_file",
