@@ -73,8 +73,9 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-live", action="store_true", help="no live table")
     parser.add_argument("--no-dashboard", action="store_true",
                         help="no live web page (by default the demo serves the dashboard "
-                        f"on port {DEFAULT_PORT}, or a free one, and prints its URL; not "
-                        "with --channel, where it would listen inside a namespace)")
+                        f"on port {DEFAULT_PORT}, or a free one, and prints its URL, and "
+                        "serves the run live to Foxglove beside it; not with --channel, "
+                        "where they would listen inside a namespace)")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
     add_ros2_arguments(parser)  # the demo's adapter by default: frames as images, poses
 
@@ -89,7 +90,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(func=run_demo)
 
 
-def options_from(args: argparse.Namespace) -> demo.DemoOptions:
+def options_from(args: argparse.Namespace, out: Path | None = None) -> demo.DemoOptions:
+    """The demo's options; with ``out``, the run is recorded to ``out/run.mcap``."""
     try:
         channel = None if args.channel is None else ChannelSpec(
             rate_bps=args.channel, queue_s=args.channel_queue)
@@ -101,6 +103,7 @@ def options_from(args: argparse.Namespace) -> demo.DemoOptions:
             rate_hz=args.rate, frame_px=args.frame_size, vehicle=args.vehicle,
             motion=args.motion, mode=args.mode, policy=args.policy, warmup_s=args.warmup,
             live=not args.no_live, channel=channel, ros2=ros2,
+            mcap=None if out is None else out / "run.mcap",
             dashboard_port=None if args.no_dashboard or channel is not None else DEFAULT_PORT,
         )
     except ValueError as exc:
@@ -109,13 +112,14 @@ def options_from(args: argparse.Namespace) -> demo.DemoOptions:
 
 def run_demo(args: argparse.Namespace) -> int:
     """Run, print the summary, write the files; 1 if a UAV handed back nothing."""
-    options = options_from(args)
+    out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    options = options_from(args, out)
     if options.channel is not None:
         require_testbed()
-    out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    out.mkdir(parents=True, exist_ok=True)
     run = demo.run(options)
     summary = summarise(run)
-    paths = write_outputs(out, run, summary)
+    paths = [*write_outputs(out, run, summary), out / "run.mcap"]
     paths += write_plots(out, run, gif=not args.no_gif)
     print("\n".join(summary_lines(summary)))
     print(f"wrote {', '.join(p.name for p in paths)} in {out}")

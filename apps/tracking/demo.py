@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from multiprocessing import connection
+from pathlib import Path
 from typing import Literal
 
 import zenoh
@@ -32,12 +33,15 @@ from apps.tracking.geometry import CameraModel
 from apps.tracking.leader_app import ControlSink, VisionLoop, VisionStats
 from apps.tracking.push import PushLeader
 from apps.tracking.reception import AoISummary, DeliveryRow, Reception
+from apps.tracking.ros2 import FrameAdapter
 from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
+from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
+from wiswarm_zenoh.recording import SwarmRecording
 from wiswarm_zenoh.ros2 import Ros2Options
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
 from wiswarm_zenoh.transport import (
@@ -79,6 +83,7 @@ class DemoOptions:
     channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
     ros2: Ros2Options | None = None  # the leader is also a ROS 2 node
+    mcap: Path | None = None  # where the run is recorded for Foxglove (None: not recorded)
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -237,6 +242,8 @@ def run(options: DemoOptions) -> DemoRun:
         stack.callback(board.close)
         if options.dashboard_port is not None:
             stack.callback(_dashboard(session, options).close)
+        if options.mcap is not None or options.dashboard_port is not None:
+            stack.enter_context(_foxglove(session, options))
 
         epoch = time.time() + options.warmup_s
         end = epoch + options.duration_s
@@ -280,6 +287,23 @@ def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
         page = Dashboard(session, SWARM, 0)
     print(f"dashboard: {page.url} (live while the demo runs)", file=sys.stderr, flush=True)
     return page
+
+
+def _foxglove(session: zenoh.Session, options: DemoOptions) -> SwarmRecording:
+    """The run into ``options.mcap`` and, beside the dashboard, live to Foxglove (on a
+    free port if Foxglove's own is taken); the live address on stderr."""
+    live = options.dashboard_port is not None
+    try:
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=FOXGLOVE_PORT if live else None)
+    except RuntimeError as exc:
+        log.warning("port %d: %s; Foxglove's server takes a free one", FOXGLOVE_PORT, exc)
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=0)
+    if recording.url is not None:
+        print(f"foxglove: {recording.url} (open it in the Foxglove app while the demo runs)",
+              file=sys.stderr, flush=True)
+    return recording
 
 
 def _collect(links: dict[str, UavLink], children: Children) -> dict[str, UavResult]:

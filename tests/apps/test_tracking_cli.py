@@ -70,3 +70,4 @@ def test_a_short_run_prints_a_summary_and_writes_the_files(
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frame_px"] == 160 and set(summary["per_uav"]) == {"uav0"}
     assert not (out / "world.gif").exists() and (out / "trajectories.png").exists()
+    assert (out / "run.mcap").stat().st_size > 0  # read channel by channel in tests/recording

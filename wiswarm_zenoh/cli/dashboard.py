@@ -35,6 +35,9 @@ def _address(text: str) -> str:
     return text
 
 
+ADDRESS = ArgType("address", _address)
+
+
 def serve(spec: SessionSpec, swarm: str, port: int, host: str) -> Dashboard:
     """The dashboard, or the reason it cannot listen as one line."""
     try:
@@ -70,7 +73,7 @@ def register(subparsers: Any) -> None:
                         help=f"the swarm to show, a key chunk (default {DEFAULT_SWARM})")
     parser.add_argument("--port", type=integer(1, 65535), default=DEFAULT_PORT,
                         help=f"the web page's TCP port (default {DEFAULT_PORT})")
-    parser.add_argument("--host", type=ArgType("address", _address), default=DEFAULT_HOST,
+    parser.add_argument("--host", type=ADDRESS, default=DEFAULT_HOST,
                         help=f"the address to serve on (default {DEFAULT_HOST}: this machine "
                         "only; 0.0.0.0 or :: for every interface)")
     parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",

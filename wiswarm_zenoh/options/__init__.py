@@ -27,7 +27,7 @@ from wiswarm_zenoh.options.arguments import (
     writable_file,
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
-from wiswarm_zenoh.options.ros2 import add_ros2_arguments, ros2_options
+from wiswarm_zenoh.options.ros2 import UPDATE_ADAPTER, add_ros2_arguments, ros2_options
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
@@ -48,6 +48,7 @@ __all__ = [
     "RUN_ID",
     "SEED",
     "TIME",
+    "UPDATE_ADAPTER",
     "ArgType",
     "OneLineParser",
     "ProgressBar",

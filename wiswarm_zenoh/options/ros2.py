@@ -16,6 +16,9 @@ def _adapter_name(text: str) -> str:
     return text
 
 
+UPDATE_ADAPTER = ArgType("choice", _adapter_name)  # by name, as the application registered it
+
+
 def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ros2", action="store_true", default=None,
                         help="also be a ROS 2 participant over rmw_zenoh: each delivered "
@@ -28,7 +31,7 @@ def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ros-namespace", metavar="NS",
                         type=ArgType("ros namespace", check_namespace),
                         help="with --ros2: the topics' namespace (default /wiswarm/<swarm>)")
-    parser.add_argument("--ros-updates", metavar="ADAPTER", type=ArgType("choice", _adapter_name),
+    parser.add_argument("--ros-updates", metavar="ADAPTER", type=UPDATE_ADAPTER,
                         help="with --ros2: how updates become messages: bytes "
                         "(std_msgs/msg/UInt8MultiArray, the default) or an application's "
                         f"adapter ({', '.join(adapter_names())} ...; tracking: "
