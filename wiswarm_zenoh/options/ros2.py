@@ -19,18 +19,24 @@ def _adapter_name(text: str) -> str:
 UPDATE_ADAPTER = ArgType("choice", _adapter_name)  # by name, as the application registered it
 
 
-def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--ros2", action="store_true", default=None,
-                        help="also be a ROS 2 participant over rmw_zenoh: each delivered "
-                        "update on <ns>/<follower>/update, the followers' stats on "
-                        "/diagnostics, a nav_msgs/msg/Path on <ns>/<follower>/waypoints "
-                        "sets that follower's waypoints (ROS 2 nodes need "
-                        "RMW_IMPLEMENTATION=rmw_zenoh_cpp and this router)")
+LEADER_HELP = ("also be a ROS 2 participant over rmw_zenoh: each delivered "
+               "update on <ns>/<follower>/update, the followers' stats on /diagnostics, a "
+               "nav_msgs/msg/Path on <ns>/<follower>/waypoints sets that follower's waypoints "
+               "(ROS 2 nodes need RMW_IMPLEMENTATION=rmw_zenoh_cpp and this router)")
+
+
+def add_ros2_arguments(parser: argparse.ArgumentParser, updates: bool = True,
+                       what: str = LEADER_HELP) -> None:
+    """``--ros2`` (``what`` it does), ``--ros-domain``, ``--ros-namespace`` (and with
+    ``updates``, ``--ros-updates``: how a leader maps its updates)."""
+    parser.add_argument("--ros2", action="store_true", default=None, help=what)
     parser.add_argument("--ros-domain", type=integer(0, MAX_DOMAIN), metavar="D",
                         help="with --ros2: the ROS domain (ROS_DOMAIN_ID; default 0)")
     parser.add_argument("--ros-namespace", metavar="NS",
                         type=ArgType("ros namespace", check_namespace),
                         help="with --ros2: the topics' namespace (default /wiswarm/<swarm>)")
+    if not updates:
+        return
     parser.add_argument("--ros-updates", metavar="ADAPTER", type=UPDATE_ADAPTER,
                         help="with --ros2: how updates become messages: bytes "
                         "(std_msgs/msg/UInt8MultiArray, the default) or an application's "
@@ -41,10 +47,11 @@ def add_ros2_arguments(parser: argparse.ArgumentParser) -> None:
 def ros2_options(args: argparse.Namespace) -> Ros2Options | None:
     """The ROS 2 side asked for, or None; a --ros-* flag without --ros2 is an error."""
     given = [flag for flag in ("ros_domain", "ros_namespace", "ros_updates")
-             if getattr(args, flag) is not None]
+             if getattr(args, flag, None) is not None]
     if not args.ros2:
         if given:
             raise UsageError(f"--{given[0].replace('_', '-')} is for --ros2: add --ros2")
         return None
     return Ros2Options(domain=args.ros_domain or 0, namespace=args.ros_namespace,
-                       adapter=None if args.ros_updates is None else adapter(args.ros_updates))
+                       adapter=None if getattr(args, "ros_updates", None) is None
+                       else adapter(args.ros_updates))
