@@ -1,0 +1,220 @@
+"""The ROS 2 side and the recorder against the plain leader (issue targets):
+
+1. polls/s of the leader with ``--ros2`` (``Ros2Options``), with nobody subscribed and
+   with a ROS 2 subscriber to every follower's update topic and ``/diagnostics`` (a
+   process of its own, as a ROS 2 node is), against the same leader without, in
+   alternating rounds (bench_poll's followers and rounds): target >= 0.95;
+2. in those rounds, how long after its delivery (the leader's ``delivered_at``) each
+   update reaches that subscriber (on the rmw_zenoh data keys): target median <= 5 ms
+   on loopback;
+3. ``SwarmRecording`` (``wiswarm record``) of a swarm at full rate: the deliveries in the
+   MCAP file against the leader's own, from the first one recorded: target nothing lost.
+
+    .venv/bin/python benchmarks/bench_ros2.py            # N = 14, 50 kB frames
+    .venv/bin/python benchmarks/bench_ros2.py -n 4 --rounds 4
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import statistics
+import struct
+import tempfile
+import threading
+import time
+from collections import defaultdict
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+import zenoh
+from bench_poll import (
+    SWARM,
+    children,
+    followers_process,
+    leader_round,
+    wait_for_routes,
+)
+from mcap.reader import make_reader
+
+from wiswarm_zenoh.core import Delivered, LeaderConfig
+from wiswarm_zenoh.recording import SwarmRecording
+from wiswarm_zenoh.ros2 import Ros2Options
+from wiswarm_zenoh.transport import SessionSpec
+from wiswarm_zenoh.transport.runners import run_router
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
+
+NO_SHM = ("transport/shared_memory/enabled:false",)
+ATTACHMENT = struct.Struct("<qqB")  # rmw_zenoh's: sequence, source time, GID length
+
+
+class RosSubscriber:
+    """Every sample on the followers' update topics: (follower, sequence, received at)."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self.samples: list[tuple[str, int, float]] = []
+        self._subscribers = [session.declare_subscriber(key, self._on_sample) for key in (
+            f"0/wiswarm/{SWARM}/*/update/*/*", "0/diagnostics/*/*")]
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        now = time.time()
+        parts = str(sample.key_expr).split("/")
+        if parts[-3] == "update" and sample.attachment is not None:
+            sequence = ATTACHMENT.unpack_from(sample.attachment.to_bytes())[0]
+            self.samples.append((parts[3], sequence, now))
+
+    def close(self) -> None:
+        for subscriber in self._subscribers:
+            subscriber.undeclare()
+
+
+def run_subscriber(spec: SessionSpec, pipe: Connection) -> None:
+    """A ROS 2 subscriber process: ready when its subscribers are declared; what it got
+    goes back when the pipe says stop."""
+    with spec.open() as session:
+        subscriber = RosSubscriber(session)
+        pipe.send("ready")
+        pipe.recv()
+        subscriber.close()
+        pipe.send(subscriber.samples)
+
+
+class SubscriberProcess:
+    def __init__(self, spec: SessionSpec) -> None:
+        context = multiprocessing.get_context("spawn")
+        self._pipe, theirs = context.Pipe()
+        self._process = context.Process(target=run_subscriber, args=(spec, theirs))
+        self._process.start()
+        assert self._pipe.recv() == "ready"
+
+    def stop(self) -> list[tuple[str, int, float]]:
+        self._pipe.send("stop")
+        samples: list[tuple[str, int, float]] = self._pipe.recv()
+        self._process.join()
+        return samples
+
+
+class LastBatch:
+    """The latest ``delivered_at`` in the leader's delivery stream, waitable."""
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._latest = 0.0
+        self._cond = threading.Condition()
+        self._subscriber = session.declare_subscriber(
+            f"wiswarm/{SWARM}/leader/deliveries", self._on_sample)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        with self._cond:
+            self._latest = max([self._latest, *(r["delivered_at"] for r in json.loads(
+                sample.payload.to_bytes()))])
+            self._cond.notify_all()
+
+    def wait_for(self, delivered_at: float) -> bool:
+        with self._cond:
+            return self._cond.wait_for(lambda: self._latest >= delivered_at, 10.0)
+
+
+def latencies(delivered: dict[str, list[float]], got: list[tuple[str, int, float]]
+              ) -> list[float]:
+    """Each sample's delay after its delivery: a follower's publisher numbers what it
+    sends 1, 2, ... and sends every delivery while the subscriber listens, so its last
+    number is its last delivery."""
+    last: dict[str, int] = defaultdict(int)
+    for follower, sequence, _ in got:
+        last[follower] = max(last[follower], sequence)
+    return [at - delivered[f][len(delivered[f]) - last[f] + sequence - 1]
+            for f, sequence, at in got]
+
+
+def measure(n: int, args: argparse.Namespace) -> None:
+    port = free_tcp_port()
+    spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",),
+                       listen=("tcp/127.0.0.1:0",), multicast_scouting=False, cfg=NO_SHM)
+    router = SessionSpec(mode="router", listen=(f"tcp/127.0.0.1:{port}",),
+                         multicast_scouting=False, cfg=NO_SHM)
+    followers = [f"uav{i}" for i in range(n)]
+    config = LeaderConfig()
+    with children([(run_router, (router,)), (followers_process, (
+            [spec] * n, followers, args.frame_bytes, None, True))]), spec.open() as session:
+        wait_for_routes(session, followers, config.timeout)
+        plain, quiet, bridged, delays = [], [], [], []
+        kinds = ("plain", "quiet", "ros2")
+        for i in range(args.rounds):
+            for kind in kinds if i % 2 == 0 else kinds[::-1]:
+                if kind == "plain":
+                    plain.append(leader_round(session, n, args.seconds, config, 0.1)[0])
+                    continue
+                if kind == "quiet":
+                    quiet.append(leader_round(session, n, args.seconds, config, 0.1,
+                                              bridge=Ros2Options())[0])
+                    continue
+                delivered: dict[str, list[float]] = defaultdict(list)
+                subscriber = SubscriberProcess(spec)
+
+                def on_delivery(event: Delivered, into: Any = delivered) -> None:
+                    into[event.follower].append(event.delivered_at)
+
+                bridged.append(leader_round(session, n, args.seconds, config, 0.1,
+                                            bridge=Ros2Options(), on_delivery=on_delivery)[0])
+                delays += latencies(delivered, subscriber.stop())
+        print(f"N = {n}, {args.frame_bytes} B updates, {args.rounds} rounds of each, "
+              f"{args.seconds} s, shared memory off")
+        print(f"  leader             {statistics.median(plain):8.0f} polls/s")
+        for title, rates in (("--ros2, nobody subscribed", quiet),
+                             ("--ros2, a ROS 2 subscriber to every topic", bridged)):
+            ratios = sorted(b / p for p, b in zip(plain, rates, strict=True))
+            q1, median, q3 = statistics.quantiles(ratios, n=4)
+            print(f"  leader {title}: {statistics.median(rates):.0f} polls/s, ratio "
+                  f"{median:.3f} (quartiles {q1:.3f} .. {q3:.3f})   target >= 0.95")
+        p50, p95 = statistics.median(delays), statistics.quantiles(delays, n=20)[18]
+        print(f"  delivery -> ROS 2 subscriber: median {p50 * 1e3:.2f} ms, p95 "
+              f"{p95 * 1e3:.2f} ms, min {min(delays) * 1e3:.2f} ms over {len(delays)} "
+              "updates   target median <= 5 ms")
+        record(session, spec, n, args)
+
+
+def record(session: zenoh.Session, spec: SessionSpec, n: int, args: argparse.Namespace) -> None:
+    """The recorder on a session of its own during a leader round; then the file's
+    deliveries against the leader's, from the first recorded on."""
+    made: list[tuple[str, float]] = []
+    with tempfile.TemporaryDirectory() as directory, spec.open() as watcher:
+        path = Path(directory) / "run.mcap"
+        recording = SwarmRecording(watcher, SWARM, mcap=path)
+        batches = LastBatch(watcher)  # on the recording's session: it hears the same
+        start = time.perf_counter()
+        rate = leader_round(session, n, args.record_seconds, LeaderConfig(), 0.1,
+                            on_delivery=lambda e: made.append((e.follower, e.delivered_at)))[0]
+        if not batches.wait_for(made[-1][1]):
+            print("  the leader's last batch of deliveries never came")
+        recording.close()
+        elapsed = time.perf_counter() - start
+        with path.open("rb") as file:
+            recorded = [(m["follower"], m["delivered_at"]) for m in (
+                json.loads(message.data) for _, channel, message
+                in make_reader(file).iter_messages(topics=[f"/wiswarm/{SWARM}/deliveries"]))
+                if m["outcome"] == "delivered"]
+        size = path.stat().st_size
+    first = made.index(recorded[0])
+    missing = len(made) - first - len(recorded)
+    print(f"  wiswarm record: {len(recorded)} deliveries in the file, the leader made "
+          f"{len(made) - first} from the first recorded on: {missing} missing "
+          f"({rate:.0f} polls/s, {len(recorded) / elapsed:.0f} deliveries/s recorded, "
+          f"{size / 1e6:.1f} MB)   target 0 missing")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("-n", "--followers", type=int, nargs="+", default=[14])
+    parser.add_argument("--frame-bytes", type=int, default=50176)
+    parser.add_argument("--seconds", type=float, default=1.5, help="length of each round")
+    parser.add_argument("--rounds", type=int, default=8, help="pairs of rounds")
+    parser.add_argument("--record-seconds", type=float, default=10.0)
+    args = parser.parse_args()
+    for n in args.followers:
+        measure(n, args)
+
+
+if __name__ == "__main__":
+    main()
