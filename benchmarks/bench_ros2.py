@@ -3,7 +3,9 @@
 1. polls/s of the leader with ``--ros2`` (``Ros2Options``), with nobody subscribed and
    with a ROS 2 subscriber to every follower's update topic and ``/diagnostics`` (a
    process of its own, as a ROS 2 node is), against the same leader without, in
-   alternating rounds (bench_poll's followers and rounds): target >= 0.95;
+   alternating rounds (bench_poll's followers and rounds): target >= 0.95; and what
+   each costs in CPU: the leader's process (this one) per poll, the subscriber's per
+   sample;
 2. in those rounds, how long after its delivery (the leader's ``delivered_at``) each
    update reaches that subscriber (on the rmw_zenoh data keys): target median <= 5 ms
    on loopback. There each update goes out as the tracking demo's frames do, a
@@ -26,6 +28,7 @@ import struct
 import tempfile
 import threading
 import time
+from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -85,14 +88,15 @@ class RosSubscriber:
 
 
 def run_subscriber(spec: SessionSpec, pipe: Connection) -> None:
-    """A ROS 2 subscriber process: ready when its subscribers are declared; what it got
-    goes back when the pipe says stop."""
+    """A ROS 2 subscriber process: ready when its subscribers are declared; what it got,
+    and the CPU time it took since, go back when the pipe says stop."""
     with spec.open() as session:
         subscriber = RosSubscriber(session)
         pipe.send("ready")
+        start = time.process_time()
         pipe.recv()
         subscriber.close()
-        pipe.send(subscriber.samples)
+        pipe.send((subscriber.samples, time.process_time() - start))
 
 
 class SubscriberProcess:
@@ -103,11 +107,12 @@ class SubscriberProcess:
         self._process.start()
         assert self._pipe.recv() == "ready"
 
-    def stop(self) -> list[Sample]:
+    def stop(self) -> tuple[list[Sample], float]:
+        """The samples it got, and its CPU time (s)."""
         self._pipe.send("stop")
-        samples: list[Sample] = self._pipe.recv()
+        got: tuple[list[Sample], float] = self._pipe.recv()
         self._process.join()
-        return samples
+        return got
 
 
 class LastBatch:
@@ -136,6 +141,41 @@ def latencies(delivered: dict[tuple[str, int], float], got: list[Sample]) -> lis
     return [at - delivered[follower, stamp] for follower, stamp, at in got]
 
 
+@dataclass
+class Kind:
+    """One kind of leader round, and what its rounds measured."""
+
+    title: str
+    bridge: Ros2Options | None = None
+    subscribed: bool = False  # a ROS 2 subscriber process on every update topic
+    rates: list[float] = field(default_factory=list)  # polls/s
+    cpu: list[float] = field(default_factory=list)  # this process's CPU per poll, s
+    delays: list[float] = field(default_factory=list)  # delivery to subscriber, s
+    made: int = 0  # deliveries while subscribed
+    sent: int = 0  # samples the subscriber got
+    subscriber_cpu: float = 0.0  # its CPU time, s
+
+
+def run_round(session: zenoh.Session, spec: SessionSpec, n: int, args: argparse.Namespace,
+              kind: Kind) -> None:
+    delivered: dict[tuple[str, int], float] = {}
+
+    def on_delivery(event: Delivered) -> None:
+        delivered[event.follower, round(event.generated_at * 1e9)] = event.delivered_at
+
+    subscriber = SubscriberProcess(spec) if kind.subscribed else None
+    start = time.process_time()
+    rate, stats, _ = leader_round(session, n, args.seconds, LeaderConfig(), 0.1,
+                                  bridge=kind.bridge, on_delivery=on_delivery)
+    kind.rates.append(rate)
+    kind.cpu.append((time.process_time() - start) / sum(int(s["polls"]) for s in stats))
+    if subscriber is not None:
+        got, cpu = subscriber.stop()
+        kind.delays += latencies(delivered, got)
+        kind.made, kind.sent = kind.made + len(delivered), kind.sent + len(got)
+        kind.subscriber_cpu += cpu
+
+
 def measure(n: int, args: argparse.Namespace) -> None:
     port = free_tcp_port()
     spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",),
@@ -143,47 +183,34 @@ def measure(n: int, args: argparse.Namespace) -> None:
     router = SessionSpec(mode="router", listen=(f"tcp/127.0.0.1:{port}",),
                          multicast_scouting=False, cfg=NO_SHM)
     followers = [f"uav{i}" for i in range(n)]
-    config = LeaderConfig()
+    kinds = [Kind("leader"), Kind("--ros2, nobody subscribed", Ros2Options()),
+             Kind("--ros2, a ROS 2 subscriber to every topic",
+                  Ros2Options(adapter=StampedUpdates()), subscribed=True)]
     with children([(run_router, (router,)), (followers_process, (
             [spec] * n, followers, args.frame_bytes, None, True))]), spec.open() as session:
-        wait_for_routes(session, followers, config.timeout)
-        plain, quiet, bridged, delays = [], [], [], []
-        made = sent = 0
-        kinds = ("plain", "quiet", "ros2")
+        wait_for_routes(session, followers, LeaderConfig().timeout)
         for i in range(args.rounds):
             for kind in kinds if i % 2 == 0 else kinds[::-1]:
-                if kind == "plain":
-                    plain.append(leader_round(session, n, args.seconds, config, 0.1)[0])
-                    continue
-                if kind == "quiet":
-                    quiet.append(leader_round(session, n, args.seconds, config, 0.1,
-                                              bridge=Ros2Options())[0])
-                    continue
-                delivered: dict[tuple[str, int], float] = {}
-                subscriber = SubscriberProcess(spec)
-
-                def on_delivery(event: Delivered, into: Any = delivered) -> None:
-                    into[event.follower, round(event.generated_at * 1e9)] = event.delivered_at
-
-                bridged.append(leader_round(
-                    session, n, args.seconds, config, 0.1,
-                    bridge=Ros2Options(adapter=StampedUpdates()), on_delivery=on_delivery)[0])
-                got = subscriber.stop()
-                delays += latencies(delivered, got)
-                made, sent = made + len(delivered), sent + len(got)
+                run_round(session, spec, n, args, kind)
         print(f"N = {n}, {args.frame_bytes} B updates, {args.rounds} rounds of each, "
               f"{args.seconds} s, shared memory off")
-        print(f"  leader             {statistics.median(plain):8.0f} polls/s")
-        for title, rates in (("--ros2, nobody subscribed", quiet),
-                             ("--ros2, a ROS 2 subscriber to every topic", bridged)):
-            ratios = sorted(b / p for p, b in zip(plain, rates, strict=True))
+        plain = kinds[0]
+        print(f"  leader             {statistics.median(plain.rates):8.0f} polls/s, this "
+              f"process's CPU {statistics.median(plain.cpu) * 1e6:.0f} µs per poll")
+        for kind in kinds[1:]:
+            ratios = sorted(b / p for p, b in zip(plain.rates, kind.rates, strict=True))
             q1, median, q3 = statistics.quantiles(ratios, n=4)
-            print(f"  leader {title}: {statistics.median(rates):.0f} polls/s, ratio "
-                  f"{median:.3f} (quartiles {q1:.3f} .. {q3:.3f})   target >= 0.95")
-        p50, p95 = statistics.median(delays), statistics.quantiles(delays, n=20)[18]
-        print(f"  delivery -> ROS 2 subscriber: median {p50 * 1e3:.2f} ms, p95 "
-              f"{p95 * 1e3:.2f} ms, min {min(delays) * 1e3:.2f} ms over {len(delays)} "
-              f"updates ({sent} of the {made} deliveries reached it)   target median <= 5 ms")
+            print(f"  leader {kind.title}: {statistics.median(kind.rates):.0f} polls/s, "
+                  f"ratio {median:.3f} (quartiles {q1:.3f} .. {q3:.3f})   target >= 0.95; "
+                  f"CPU {statistics.median(kind.cpu) * 1e6:.0f} µs per poll")
+            if kind.subscribed:
+                delays = kind.delays
+                p50, p95 = statistics.median(delays), statistics.quantiles(delays, n=20)[18]
+                print(f"    delivery -> ROS 2 subscriber: median {p50 * 1e3:.2f} ms, p95 "
+                      f"{p95 * 1e3:.2f} ms, min {min(delays) * 1e3:.2f} ms over "
+                      f"{len(delays)} updates ({kind.sent} of the {kind.made} deliveries "
+                      f"reached it; it took {kind.subscriber_cpu / kind.sent * 1e6:.0f} µs "
+                      "of CPU per sample)   target median <= 5 ms")
         record(session, spec, n, args)
 
 

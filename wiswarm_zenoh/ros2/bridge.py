@@ -1,11 +1,17 @@
 """The leader as a ROS 2 participant (``wiswarm leader --ros2``): each delivered update
 as the application's messages on ``<ns>/<follower>/<leaf>``, the followers' stats on
 ``/diagnostics``, and a ``nav_msgs/msg/Path`` on ``<ns>/<follower>/waypoints`` as that
-follower's control, checked as ``set_control`` checks any caller's."""
+follower's control, checked as ``set_control`` checks any caller's.
+
+The poll thread only leaves each delivery in its follower's slot (``Freshest``); a
+thread of the bridge's own maps, serializes and puts it. A delivery that finds an older
+one of its follower still unsent replaces it (``superseded``): ROS 2 gets the freshest
+update of each follower, never a queue of stale ones, and polling never waits for it."""
 
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import partial
@@ -20,7 +26,7 @@ from wiswarm_zenoh.ros2.graph import check_domain, check_namespace, ros_token
 from wiswarm_zenoh.ros2.messages import DIAGNOSTIC_ARRAY, PATH
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
 from wiswarm_zenoh.ros2.waypoints import path_waypoints
-from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
+from wiswarm_zenoh.transport import BadInputLog, Freshest, SwarmKeys
 from wiswarm_zenoh.transport.bridge import ControlTarget
 
 log = logging.getLogger(__name__)
@@ -53,7 +59,9 @@ class Ros2Options:
 
 
 class Ros2Bridge:
-    """One ROS 2 node, ``<namespace>/wiswarm_leader``, for the leader of ``swarm``."""
+    """One ROS 2 node, ``<namespace>/wiswarm_leader``, for the leader of ``swarm``, and
+    the thread that publishes its deliveries, until ``close()``. ``published`` counts the
+    deliveries sent, ``superseded`` those replaced unsent by a newer one."""
 
     def __init__(self, session: zenoh.Session, swarm: str, options: Ros2Options,
                  control: ControlTarget) -> None:
@@ -66,6 +74,11 @@ class Ros2Bridge:
         self._control = control
         self._diagnostics = self._node.publisher(DIAGNOSTICS, DIAGNOSTIC_ARRAY)
         self._followers: dict[str, list[Ros2Publisher]] = {}
+        self._unsent: Freshest[str, tuple[list[Ros2Publisher], Delivered]] = Freshest()
+        self.published = self.superseded = 0
+        self._thread = threading.Thread(target=self._publish_deliveries,
+                                        name=f"ros2-{swarm}", daemon=True)
+        self._thread.start()
         log.info("ROS 2 node %s/%s on domain %d", self.namespace, NODE_NAME, options.domain)
 
     def topic(self, follower: str, leaf: str) -> str:
@@ -73,9 +86,21 @@ class Ros2Bridge:
         return f"{self.namespace}/{ros_token(follower)}/{leaf}"
 
     def deliver(self, event: Delivered) -> None:
+        """Leave ``event`` for the publishing thread (on the poll thread: no more)."""
         publishers = self._publishers(event.follower)
-        if not any(publisher.listening for publisher in publishers):
-            return
+        if any(publisher.listening for publisher in publishers):
+            self.superseded += self._unsent.put(event.follower, (publishers, event)) is not None
+
+    def _publish_deliveries(self) -> None:
+        while (item := self._unsent.take()) is not None:
+            follower, (publishers, event) = item
+            try:
+                self._publish(publishers, event)
+            except Exception:  # logged, as a failed callback of the leader's: go on
+                log.exception("ROS 2: %s's update at %.6f not published", follower,
+                              event.generated_at)
+
+    def _publish(self, publishers: list[Ros2Publisher], event: Delivered) -> None:
         try:
             messages = self._adapter.messages(event.follower, event.payload, event.generated_at)
         except (ValueError, WireError) as exc:
@@ -83,6 +108,7 @@ class Ros2Bridge:
             return
         for publisher, message in zip(publishers, messages, strict=True):
             publisher.publish(message)
+        self.published += 1
 
     def stats(self, records: Sequence[FollowerStats], now: float) -> None:
         for record in records:
@@ -109,4 +135,9 @@ class Ros2Bridge:
         log.debug("%d waypoints for %s from ROS 2", len(waypoints), follower)
 
     def close(self) -> None:
+        """Stop publishing (what is unsent is dropped) and undeclare the node."""
+        self._unsent.close()
+        self._thread.join()
         self._node.close()
+        log.info("ROS 2: %d deliveries published, %d superseded unsent by a newer one",
+                 self.published, self.superseded)

@@ -25,7 +25,7 @@ MAX_MESSAGE_BYTES = 1 << 20  # larger input is refused before it is decoded
 
 
 class Ros2Publisher:
-    """Publishes messages of one type on one topic."""
+    """Publishes messages of one type on one topic (from one thread at a time)."""
 
     def __init__(self, session: zenoh.Session, node: NodeName, entity_id: int, topic: str,
                  type_name: str) -> None:
