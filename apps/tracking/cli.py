@@ -12,6 +12,7 @@ over a 20 Mbit/s shared link in user space (no root), and the two are compared:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import logging
 import time
 from pathlib import Path
@@ -26,6 +27,7 @@ from apps.tracking.report import (
     write_outputs,
     write_summary,
 )
+from apps.tracking.ros2 import FrameAdapter
 from apps.tracking.uav_app import SYSTEMS, System
 from apps.tracking.vehicles import VEHICLE_KINDS
 from apps.tracking.world import MOTIONS
@@ -37,11 +39,13 @@ from wiswarm_zenoh.options import (
     TIME,
     ArgType,
     UsageError,
+    add_ros2_arguments,
     finite_float,
     format_rate,
     positive_float,
     positive_int,
     require_testbed,
+    ros2_options,
     writable_dir,
 )
 from wiswarm_zenoh.testbed import ChannelSpec
@@ -97,9 +101,11 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-live", action="store_true", help="no live table")
     parser.add_argument("--no-dashboard", action="store_true",
                         help="no live web page (by default the demo serves the dashboard "
-                        f"on port {DEFAULT_PORT}, or a free one, and prints its URL; not "
-                        "with --channel tbf, where it would listen inside a namespace)")
+                        f"on port {DEFAULT_PORT}, or a free one, and prints its URL, and "
+                        "serves the run live to Foxglove beside it; not with --channel "
+                        "tbf, where they would listen inside a namespace)")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
+    add_ros2_arguments(parser)  # the demo's adapter by default: frames as images, poses
 
 
 def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -112,17 +118,24 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
     parser.set_defaults(func=run_demo)
 
 
-def options_from(args: argparse.Namespace, system: System = "wiswarm") -> demo.DemoOptions:
-    """The run of ``system`` that the flags describe (UsageError if a value is bad)."""
+def options_from(args: argparse.Namespace, system: System = "wiswarm",
+                 out: Path | None = None) -> demo.DemoOptions:
+    """The run of ``system`` that the flags describe (UsageError if a value is bad);
+    with ``out``, the run is recorded to ``out/run.mcap``."""
     try:
         channel = None if args.channel == "none" else ChannelSpec(
             rate_bps=args.channel_rate, queue_s=args.channel_queue)
+        system = args.system or system
+        ros2 = ros2_options(args) if system == "wiswarm" else None
+        if ros2 is not None and ros2.adapter is None:
+            ros2 = dataclasses.replace(ros2, adapter=FrameAdapter())
         return demo.DemoOptions(
             uavs=args.uavs, duration_s=args.duration, seed=args.seed,
-            system=args.system or system, rate_hz=args.rate, frame_px=args.frame_size,
+            system=system, rate_hz=args.rate, frame_px=args.frame_size,
             vehicle=args.vehicle, motion=args.motion, mode=args.mode, policy=args.policy,
             warmup_s=args.warmup, live=not args.no_live, channel=channel,
-            channel_kind="tbf" if args.channel == "tbf" else "user",
+            channel_kind="tbf" if args.channel == "tbf" else "user", ros2=ros2,
+            mcap=None if out is None else out / "run.mcap",
             dashboard_port=None if args.no_dashboard or args.channel == "tbf" else DEFAULT_PORT,
         )
     except ValueError as exc:
@@ -142,11 +155,14 @@ def crossing(options: demo.DemoOptions) -> str:
 def run_demo(args: argparse.Namespace) -> int:
     """Run one system, or each in turn in the same world; print the summary (side by
     side for several), write the files; 1 if a UAV handed back nothing."""
-    runs = [options_from(args, system) for system in
-            ((args.system,) if args.system else SYSTEMS)]
+    out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    systems = (args.system,) if args.system else SYSTEMS
+    where = {system: out if len(systems) == 1 else out / system for system in systems}
+    runs = [options_from(args, system, where[system]) for system in systems]
     if runs[0].namespaces:
         require_testbed()
-    out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
+    for directory in where.values():  # each run's recording goes there as it runs
+        directory.mkdir(parents=True, exist_ok=True)
     if len(runs) == 1:
         return _run_one(runs[0], out, gif=not args.no_gif)
     done: list[demo.DemoRun] = []
@@ -180,7 +196,7 @@ def _run_one(options: demo.DemoOptions, out: Path, gif: bool) -> int:
           f"{options.duration_s:g} s over {crossing(options)}", flush=True)
     run = demo.run(options)
     summary = summarise(run)
-    paths = write_outputs(out, run, summary)
+    paths = [*write_outputs(out, run, summary), out / "run.mcap"]
     paths += write_plots(out, run, gif=gif)
     print("\n".join(summary_lines(summary)))
     print(f"wrote {', '.join(p.name for p in paths)} in {out}")

@@ -24,6 +24,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field
 from multiprocessing import connection
+from pathlib import Path
 from typing import Literal
 
 import zenoh
@@ -33,12 +34,16 @@ from apps.tracking.geometry import CameraModel
 from apps.tracking.leader_app import ControlSink, VisionLoop, VisionStats
 from apps.tracking.push import PushLeader
 from apps.tracking.reception import AoISummary, DeliveryRow, Reception
+from apps.tracking.ros2 import FrameAdapter
 from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
+from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
+from wiswarm_zenoh.recording import SwarmRecording
+from wiswarm_zenoh.ros2 import Ros2Options
 from wiswarm_zenoh.testbed import (
     Channel,
     ChannelSpec,
@@ -89,6 +94,8 @@ class DemoOptions:
     channel: ChannelSpec | None = None  # the UAVs behind a shared channel of this shape
     channel_kind: ChannelKind = "tbf"  # tbf: namespaces (root); user: a relay on loopback
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
+    ros2: Ros2Options | None = None  # the leader is also a ROS 2 node
+    mcap: Path | None = None  # where the run is recorded for Foxglove (None: not recorded)
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -115,6 +122,8 @@ class DemoOptions:
         if self.channel_kind not in CHANNEL_KINDS:
             raise ValueError(f"channel kind must be one of {CHANNEL_KINDS}, got "
                              f"{self.channel_kind!r}")
+        if self.ros2 is not None and self.system != "wiswarm":
+            raise ValueError("--ros2 is for --system wiswarm: the push baseline has no leader")
         if self.dashboard_port is not None and self.namespaces:
             raise ValueError("the dashboard cannot run with --channel tbf: its page would "
                              "listen inside the leader's network namespace (add "
@@ -179,7 +188,8 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
     """The leader's transport: a LeaderNode polling, or the push baseline's subscriber."""
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
-        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered) as node:
+        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered,
+                        bridge=options.ros2) as node:
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,
@@ -261,6 +271,8 @@ def run(options: DemoOptions) -> DemoRun:
         stack.callback(board.close)
         if options.dashboard_port is not None:
             stack.callback(_dashboard(session, options).close)
+        if options.mcap is not None or options.dashboard_port is not None:
+            stack.enter_context(_foxglove(session, options))
 
         epoch = time.time() + options.warmup_s
         end = epoch + options.duration_s
@@ -304,6 +316,23 @@ def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
         page = Dashboard(session, SWARM, 0)
     print(f"dashboard: {page.url} (live while the demo runs)", file=sys.stderr, flush=True)
     return page
+
+
+def _foxglove(session: zenoh.Session, options: DemoOptions) -> SwarmRecording:
+    """The run into ``options.mcap`` and, beside the dashboard, live to Foxglove (on a
+    free port if Foxglove's own is taken); the live address on stderr."""
+    live = options.dashboard_port is not None
+    try:
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=FOXGLOVE_PORT if live else None)
+    except RuntimeError as exc:
+        log.warning("port %d: %s; Foxglove's server takes a free one", FOXGLOVE_PORT, exc)
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=0)
+    if recording.url is not None:
+        print(f"foxglove: {recording.url} (open it in the Foxglove app while the demo runs)",
+              file=sys.stderr, flush=True)
+    return recording
 
 
 def _collect(links: dict[str, UavLink], children: Children) -> dict[str, UavResult]:

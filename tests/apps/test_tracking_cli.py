@@ -88,3 +88,4 @@ def test_a_short_run_prints_a_summary_and_writes_the_files(
     assert summary["systems"]["wiswarm"]["channel"] is None  # loopback
     assert summary["systems"]["wiswarm"]["mean_aoi_s"] == summary["average"]["mean_aoi_s"]
     assert not (out / "world.gif").exists() and (out / "trajectories.png").exists()
+    assert (out / "run.mcap").stat().st_size > 0  # read channel by channel in tests/recording

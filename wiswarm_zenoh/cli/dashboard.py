@@ -36,6 +36,9 @@ def _address(text: str) -> str:
     return text
 
 
+ADDRESS = ArgType("address", _address)
+
+
 def _port_free(host: str, port: int) -> None:
     """OSError if ``port`` cannot be listened on: found at once, not after the session's
     scouting (seconds) as when the page's server finds it."""
@@ -81,7 +84,7 @@ def register(subparsers: Any) -> None:
                         help=f"the swarm to show, a key chunk (default {DEFAULT_SWARM})")
     parser.add_argument("--port", type=integer(1, 65535), default=DEFAULT_PORT,
                         help=f"the web page's TCP port (default {DEFAULT_PORT})")
-    parser.add_argument("--host", type=ArgType("address", _address), default=DEFAULT_HOST,
+    parser.add_argument("--host", type=ADDRESS, default=DEFAULT_HOST,
                         help=f"the address to serve on (default {DEFAULT_HOST}: this machine "
                         "only; 0.0.0.0 or :: for every interface)")
     parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",

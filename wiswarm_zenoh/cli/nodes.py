@@ -33,12 +33,14 @@ from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.options import (
     IN_FLIGHT,
     UsageError,
+    add_ros2_arguments,
     add_zenoh_arguments,
     finite_float,
     host_port,
     node_name,
     positive_float,
     positive_int,
+    ros2_options,
     writable_dir,
     writable_file,
 )
@@ -68,7 +70,8 @@ BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
                "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
                "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
-               "timeout_floor": ("wiswarm",),
+               "timeout_floor": ("wiswarm",), "ros2": ("wiswarm",), "ros_domain": ("wiswarm",),
+               "ros_namespace": ("wiswarm",), "ros_updates": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
@@ -177,7 +180,8 @@ def _leader(args: argparse.Namespace) -> int:
     if args.upstream == args.swarm:
         raise UsageError(f"--upstream must be another swarm than --swarm ({args.swarm!r})")
     options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record,
-                            name=args.name, upstream=args.upstream, site=args.site)
+                            name=args.name, upstream=args.upstream, site=args.site,
+                            bridge=ros2_options(args))
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
@@ -301,6 +305,7 @@ def register(subparsers: Any) -> None:
                         help="with --upstream: this site's name there (default: --swarm)")
     leader.add_argument("--record", metavar="CSV", type=writable_file(),
                         help="write every delivery to this file (its directory must exist)")
+    add_ros2_arguments(leader)
     _add_common(leader, ("peer", "client"))
     leader.set_defaults(func=_leader)
 

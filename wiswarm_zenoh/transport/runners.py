@@ -23,6 +23,7 @@ from typing import Any, Protocol
 import zenoh
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport.bridge import BridgeOptions
 from wiswarm_zenoh.transport.edge import Upstream
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.frames import (
@@ -225,6 +226,7 @@ class LeaderOptions:
     name: str | None = None  # the leader's name among its swarm's leaders (see election)
     upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
     site: str | None = None  # its name there (followers appear as <site>.<follower>)
+    bridge: BridgeOptions | None = None  # e.g. the ROS 2 side (wiswarm_zenoh.ros2)
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -250,7 +252,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                control_period=options.control_period, name=options.name)
+                control_period=options.control_period, name=options.name,
+                bridge=options.bridge)
             if upstream is not None:
                 upstream.set_control = node.set_control
             _lead(node, session, spec.connect, options, stop, ready, show)
