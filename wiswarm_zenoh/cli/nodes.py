@@ -44,7 +44,7 @@ from wiswarm_zenoh.options import (
     writable_dir,
     writable_file,
 )
-from wiswarm_zenoh.security.checks import check_identity
+from wiswarm_zenoh.security.checks import check_identity, check_swarm
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
@@ -100,6 +100,8 @@ def _spec(args: argparse.Namespace, default_mode: str) -> SessionSpec:
     spec = SessionSpec.from_args(args, default_mode,
                                  () if default_mode == "router" else (LOCAL_ROUTER,))
     spec.config()  # every flag checked before anything starts
+    if getattr(args, "swarm", None) is not None:
+        check_swarm(args.config, args.swarm)
     return spec
 
 

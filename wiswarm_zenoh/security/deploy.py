@@ -59,7 +59,7 @@ def _rendered(directory: Path, plan: Plan, nodes: tuple[str, ...]) -> dict[str, 
         f"{plan.roster.swarm!r}: the router (`wiswarm router -c {directory / ROUTER_CONFIG}`)")}
     for node in nodes:
         texts[f"{node}.json5"] = configs.render(
-            configs.node_config(directory, node, plan.connect),
+            configs.node_config(directory, node, plan.connect, plan.roster.swarm),
             f"swarm {plan.roster.swarm!r}: node {node!r}, a client of the router")
     return texts
 
