@@ -31,6 +31,7 @@ NOBODY = 65534
 SETPRIV = ("setpriv", f"--reuid={NOBODY}", f"--regid={NOBODY}", "--clear-groups",
            "--no-new-privs", "--inh-caps=-all", "--bounding-set=-all", "env")
 UAVS, DURATION = 2, 5
+PURELIB = sysconfig.get_paths()["purelib"]
 
 
 def _unprivileged() -> tuple[tuple[str, ...], str]:
@@ -53,10 +54,32 @@ def _unprivileged() -> tuple[tuple[str, ...], str]:
                 "nobody may run")
 
 
-def _env(home: Path) -> dict[str, str]:
+def _env(home: Path, paths: tuple[str, ...] = (str(ROOT), PURELIB)) -> dict[str, str]:
     return {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(home),
             "MPLCONFIGDIR": str(home / ".matplotlib"), "LANG": "C.UTF-8",
-            "PYTHONPATH": os.pathsep.join((str(ROOT), sysconfig.get_paths()["purelib"]))}
+            "PYTHONPATH": os.pathsep.join(paths)}
+
+
+def _readable_code(prefix: tuple[str, ...], python: str, home: Path) -> tuple[str, ...]:
+    """Where user nobody finds the project and its packages: where they are, or, for a
+    checkout nobody may enter (a private temporary directory, as a fresh clone's), a
+    mirror under ``home`` (packages hard-linked where the file system allows)."""
+    probe = subprocess.run([*prefix, python, "-c", "import wiswarm_zenoh, zenoh, cv2"],
+                           capture_output=True, check=False, env=_env(home))
+    if probe.returncode == 0:
+        return str(ROOT), PURELIB
+    mirror = home / "code"
+    for package in ("wiswarm_zenoh", "apps"):
+        shutil.copytree(ROOT / package, mirror / "src" / package)
+    linked = subprocess.run(["cp", "-al", PURELIB, str(mirror / "packages")],
+                            capture_output=True, check=False)
+    if linked.returncode != 0:  # another file system: copied instead
+        shutil.rmtree(mirror / "packages", ignore_errors=True)
+        shutil.copytree(PURELIB, mirror / "packages", symlinks=True)
+    for directory in (mirror, *mirror.rglob("*")):
+        if directory.is_dir():
+            directory.chmod(0o755)
+    return str(mirror / "src"), str(mirror / "packages")
 
 
 @pytest.fixture(scope="module")
@@ -66,11 +89,13 @@ def comparison() -> Iterator[tuple[subprocess.CompletedProcess[str], Path]]:
     home.chmod(0o777)
     out = home / "run"
     try:
+        paths = _readable_code(prefix, python, home)
         done = subprocess.run(
             [*prefix, python, "-m", "wiswarm_zenoh.cli.main", "demo", "--uavs", str(UAVS),
              "--duration", str(DURATION), "--warmup", "1", "--no-live", "--no-dashboard",
              "--out", str(out)],
-            capture_output=True, text=True, timeout=240, check=False, cwd=home, env=_env(home))
+            capture_output=True, text=True, timeout=240, check=False, cwd=home,
+            env=_env(home, paths))
         yield done, out
     finally:
         shutil.rmtree(home)
