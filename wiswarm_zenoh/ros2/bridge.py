@@ -99,6 +99,11 @@ class Ros2Bridge:
         """``<namespace>/<follower>/<leaf>``, the follower's name made a ROS token."""
         return f"{self.namespace}/{ros_token(follower)}/{leaf}"
 
+    def publisher(self, topic: str, type_name: str) -> Ros2Publisher:
+        """A publisher of the application's own on this node (e.g. of what it makes of
+        the updates), undeclared with it; publish from one thread."""
+        return self._node.publisher(topic, type_name)
+
     def deliver(self, event: Delivered) -> None:
         """Leave ``event`` for the publishing thread (on the poll thread: no more)."""
         publishers = self._publishers(event.follower)
