@@ -5,7 +5,8 @@
    process of its own, as a ROS 2 node is), against the same leader without, in
    alternating rounds (bench_poll's followers and rounds): target >= 0.95; and what
    each costs in CPU: the leader's process (this one) per poll, the subscriber's per
-   sample;
+   sample; then the same subscribed, with each follower's updates sent at most
+   ``--max-rate`` times a second (``Ros2Options.max_rate_hz``, ``--ros-max-rate``);
 2. in those rounds, how long after its delivery (the leader's ``delivered_at``) each
    update reaches that subscriber (on the rmw_zenoh data keys): target median <= 5 ms
    on loopback. There each update goes out as the tracking demo's frames do, a
@@ -16,6 +17,7 @@
 
     .venv/bin/python benchmarks/bench_ros2.py            # N = 14, 50 kB frames
     .venv/bin/python benchmarks/bench_ros2.py -n 4 --rounds 4
+    .venv/bin/python benchmarks/bench_ros2.py --kinds capped   # plain and capped only
 """
 
 from __future__ import annotations
@@ -54,6 +56,7 @@ from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 NO_SHM = ("transport/shared_memory/enabled:false",)
 STAMP = struct.Struct("<4xiI")  # a CDR message's header stamp: encapsulation, sec, nanosec
 Sample = tuple[str, int, float]  # follower, header stamp (ns), received at
+KINDS = ["quiet", "subscribed", "capped"]
 
 
 class StampedUpdates:
@@ -183,9 +186,14 @@ def measure(n: int, args: argparse.Namespace) -> None:
     router = SessionSpec(mode="router", listen=(f"tcp/127.0.0.1:{port}",),
                          multicast_scouting=False, cfg=NO_SHM)
     followers = [f"uav{i}" for i in range(n)]
-    kinds = [Kind("leader"), Kind("--ros2, nobody subscribed", Ros2Options()),
-             Kind("--ros2, a ROS 2 subscriber to every topic",
-                  Ros2Options(adapter=StampedUpdates()), subscribed=True)]
+    compared = {
+        "quiet": Kind("--ros2, nobody subscribed", Ros2Options()),
+        "subscribed": Kind("--ros2, a ROS 2 subscriber to every topic",
+                           Ros2Options(adapter=StampedUpdates()), subscribed=True),
+        "capped": Kind(f"--ros2 --ros-max-rate {args.max_rate:g}, the same subscriber",
+                       Ros2Options(adapter=StampedUpdates(), max_rate_hz=args.max_rate),
+                       subscribed=True)}
+    kinds = [Kind("leader"), *(compared[name] for name in args.kinds)]
     with children([(run_router, (router,)), (followers_process, (
             [spec] * n, followers, args.frame_bytes, None, True))]), spec.open() as session:
         wait_for_routes(session, followers, LeaderConfig().timeout)
@@ -250,6 +258,10 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=1.5, help="length of each round")
     parser.add_argument("--rounds", type=int, default=8, help="pairs of rounds")
     parser.add_argument("--record-seconds", type=float, default=10.0)
+    parser.add_argument("--max-rate", type=float, default=20.0,
+                        help="Hz: each follower's updates to ROS 2 at most, in 'capped'")
+    parser.add_argument("--kinds", nargs="+", default=KINDS, choices=KINDS,
+                        help="the rounds to pair with the plain leader's (fewer: closer pairs)")
     args = parser.parse_args()
     for n in args.followers:
         measure(n, args)

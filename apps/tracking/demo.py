@@ -31,10 +31,10 @@ import zenoh
 
 from apps.tracking.board import TrackingBoard, table_lines
 from apps.tracking.geometry import CameraModel
-from apps.tracking.leader_app import ControlSink, VisionLoop, VisionStats
+from apps.tracking.leader_app import CarEstimate, ControlSink, VisionLoop, VisionStats
 from apps.tracking.push import PushLeader
 from apps.tracking.reception import AoISummary, DeliveryRow, Reception
-from apps.tracking.ros2 import FrameAdapter
+from apps.tracking.ros2 import CarMarkers, FrameAdapter
 from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
@@ -43,7 +43,7 @@ from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
 from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
 from wiswarm_zenoh.recording import SwarmRecording
-from wiswarm_zenoh.ros2 import Ros2Options
+from wiswarm_zenoh.ros2 import Ros2Bridge, Ros2Options
 from wiswarm_zenoh.testbed import (
     Channel,
     ChannelSpec,
@@ -180,6 +180,7 @@ class _Leader:
     sink: ControlSink
     weights: Callable[[], dict[str, float]]
     polls: Callable[[], int]
+    on_estimate: Callable[[CarEstimate], None] | None = None  # the cars, to ROS 2
 
 
 @contextmanager
@@ -193,6 +194,7 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,
+                CarMarkers(node.bridge) if isinstance(node.bridge, Ros2Bridge) else None,
             )
     else:
         leader = PushLeader(session, SWARM, reception)
@@ -265,7 +267,7 @@ def run(options: DemoOptions) -> DemoRun:
                             world.arena, options.tracker, options.camera)
         reception = Reception(options.uav_ids, vision)
         leader = stack.enter_context(_open_leader(session, options, reception))
-        vision.start(leader.sink)
+        vision.start(leader.sink, leader.on_estimate)
         stack.callback(vision.stop)
         board = TrackingBoard(session, SWARM)
         stack.callback(board.close)

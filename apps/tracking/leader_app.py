@@ -4,7 +4,8 @@ Frames that arrive for a UAV land in that UAV's mailbox, which keeps only the fr
 (a LIFO of one per UAV, as the paper's compute node keeps: the middleware's
 ``Freshest``). One vision thread takes them round robin and processes each: it finds the
 UAV's car, updates the car's tracker, hands the plan to the middleware as control
-information and the car-UAV relative speed as the urgency signal. Arrivals only swap a
+information and the car-UAV relative speed as the urgency signal, and each new estimate
+of the car to whoever asked (``on_estimate``: the ROS 2 side). Arrivals only swap a
 reference under a lock, so the transport's thread is never held up by vision.
 
 Clocks: arrivals carry the update's generation time on the leader's clock, frames their
@@ -65,6 +66,19 @@ class VisionStats:
     plan: Plan | None = None
 
 
+@dataclass(frozen=True)
+class CarEstimate:
+    """Where the leader estimates the car a UAV tracks is (``xy``, m) and how it moves
+    (``velocity``, m/s), at ``at``: the time of the frame it was last seen in, on the
+    leader's clock."""
+
+    uav: str
+    car: int
+    at: float
+    xy: tuple[float, float]
+    velocity: tuple[float, float]
+
+
 class VisionLoop:
     """Detector and one tracker per UAV on a single thread. `assignment` maps each UAV
     id to the marker id of the car it tracks; frames from other ids are refused."""
@@ -84,14 +98,18 @@ class VisionLoop:
         self._mailboxes: Freshest[str, Arrival] = Freshest()
         self._lock = threading.Lock()  # the stats
         self._sink: ControlSink | None = None
+        self._on_estimate: Callable[[CarEstimate], None] | None = None
         self._thread: threading.Thread | None = None
         self.busy_s = 0.0
         self.bad_input = BadInputLog(log)
 
-    def start(self, sink: ControlSink) -> None:
+    def start(self, sink: ControlSink,
+              on_estimate: Callable[[CarEstimate], None] | None = None) -> None:
+        """Process frames, handing plans to ``sink`` and each new car estimate (a frame
+        that saw the car) to ``on_estimate``, on the vision thread, until ``stop()``."""
         if self._thread is not None:
             raise RuntimeError("vision loop already started")
-        self._sink = sink
+        self._sink, self._on_estimate = sink, on_estimate
         self._thread = threading.Thread(target=self._run, name="vision", daemon=True)
         self._thread.start()
 
@@ -135,6 +153,13 @@ class VisionLoop:
         detection = self._detector.locate(frame, self._cars[uav])
         offset = arrival.generated_at - frame.t  # leader clock minus UAV clock
         plan = self._trackers[uav].update(frame, detection, self._clock() - offset)
+        fresh = detection is not None and plan.last_seen_t == frame.t
+        if fresh and plan.car_xy is not None and self._on_estimate is not None:
+            try:
+                self._on_estimate(CarEstimate(uav, self._cars[uav], arrival.generated_at,
+                                              plan.car_xy, plan.car_velocity))
+            except Exception:  # logged: never the end of the vision thread
+                log.exception("%s's car estimate not handed on", uav)
         sent = 0
         if detection is not None and plan.waypoints and self._sink is not None:
             try:

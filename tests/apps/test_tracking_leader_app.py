@@ -11,7 +11,7 @@ import pytest
 
 from apps.tracking.frames import Frame, encode_frame
 from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.leader_app import Arrival, VisionLoop
+from apps.tracking.leader_app import Arrival, CarEstimate, VisionLoop
 from apps.tracking.reception import Reception
 from apps.tracking.render import Renderer
 from apps.tracking.report import aoi_series
@@ -30,12 +30,14 @@ class RecordingSink:
         self.urgencies: list[tuple[str, float]] = []
         self._expected = expected
         self.done = threading.Event()
+        self.handled = threading.Semaphore(0)  # one release per frame that gave a plan
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         self.plans.append((follower, [tuple(w) for w in waypoints]))
 
     def observe_urgency(self, follower: str, v: float) -> float:
         self.urgencies.append((follower, v))
+        self.handled.release()
         if len(self.urgencies) >= self._expected:
             self.done.set()
         return v
@@ -84,6 +86,24 @@ def test_waypoints_are_stamped_in_the_uav_clock() -> None:
     waypoints = sink.plans[0][1]
     assert waypoints[0][0] == pytest.approx(1.02)
     assert all(WORLD.arena.contains(w[1], w[2]) for w in waypoints)
+
+
+def test_each_sighting_is_an_estimate_stamped_on_the_leaders_clock() -> None:
+    """The frame at 1.2 s comes after the one at 1.3 s: it is older, so no estimate."""
+    offset = 100.0  # the leader's clock ahead of the UAV's
+    vision = VisionLoop({"a": 0}, WORLD.arena, camera=CAMERA)
+    estimates: list[CarEstimate] = []
+    sink = RecordingSink(expected=3)
+    vision.start(sink, estimates.append)
+    try:
+        for t in (1.0, 1.3, 1.2):  # one at a time: none replaces another unprocessed
+            vision.submit("a", Arrival(frame_over_car(0, t), t + offset, t + offset + 0.01))
+            assert sink.handled.acquire(timeout=10.0)
+    finally:
+        vision.stop()
+    assert [(e.uav, e.car, e.at) for e in estimates] == [("a", 0, 1.0 + offset),
+                                                           ("a", 0, 1.3 + offset)]
+    assert estimates[-1].xy == pytest.approx(WORLD.car_position(0, 1.3), abs=0.05)
 
 
 def test_frames_from_a_uav_without_a_car_are_refused() -> None:

@@ -27,6 +27,26 @@ DEFINITIONS = {
     "diagnostic_msgs/msg/DiagnosticArray": ("std_msgs/Header header\n"
                                             "DiagnosticStatus[] status\n"),
     "std_msgs/msg/String": "string data\n",
+    "std_msgs/msg/ColorRGBA": "float32 r\nfloat32 g\nfloat32 b\nfloat32 a\n",
+    "builtin_interfaces/msg/Duration": "int32 sec\nuint32 nanosec\n",
+    "geometry_msgs/msg/Vector3": "float64 x\nfloat64 y\nfloat64 z\n",
+    "sensor_msgs/msg/CompressedImage": "std_msgs/Header header\nstring format\nuint8[] data\n",
+    "visualization_msgs/msg/UVCoordinate": "float32 u\nfloat32 v\n",
+    "visualization_msgs/msg/MeshFile": "string filename\nuint8[] data\n",
+    "visualization_msgs/msg/Marker": (
+        "int32 ARROW=0\nint32 CUBE=1\nint32 SPHERE=2\nint32 CYLINDER=3\nint32 LINE_STRIP=4\n"
+        "int32 LINE_LIST=5\nint32 CUBE_LIST=6\nint32 SPHERE_LIST=7\nint32 POINTS=8\n"
+        "int32 TEXT_VIEW_FACING=9\nint32 MESH_RESOURCE=10\nint32 TRIANGLE_LIST=11\n"
+        "int32 ARROW_STRIP=12\nint32 ADD=0\nint32 MODIFY=0\nint32 DELETE=2\n"
+        "int32 DELETEALL=3\n"
+        "std_msgs/Header header\nstring ns\nint32 id\nint32 type\nint32 action\n"
+        "geometry_msgs/Pose pose\ngeometry_msgs/Vector3 scale\nstd_msgs/ColorRGBA color\n"
+        "builtin_interfaces/Duration lifetime\nbool frame_locked\n"
+        "geometry_msgs/Point[] points\nstd_msgs/ColorRGBA[] colors\n"
+        "string texture_resource\nsensor_msgs/CompressedImage texture\n"
+        "UVCoordinate[] uv_coordinates\nstring text\nstring mesh_resource\n"
+        "MeshFile mesh_file\nbool mesh_use_embedded_materials\n"),
+    "visualization_msgs/msg/MarkerArray": "Marker[] markers\n",
 }
 
 

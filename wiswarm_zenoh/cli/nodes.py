@@ -72,6 +72,7 @@ LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wisw
                "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
                "timeout_floor": ("wiswarm",), "ros2": ("wiswarm",), "ros_domain": ("wiswarm",),
                "ros_namespace": ("wiswarm",), "ros_updates": ("wiswarm",),
+               "ros_max_rate": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}

@@ -6,11 +6,15 @@ follower's control, checked as ``set_control`` checks any caller's.
 The poll thread only leaves each delivery in its follower's slot (``Freshest``); a
 thread of the bridge's own maps, serializes and puts it. A delivery that finds an older
 one of its follower still unsent replaces it (``superseded``): ROS 2 gets the freshest
-update of each follower, never a queue of stale ones, and polling never waits for it."""
+update of each follower, never a queue of stale ones, and polling never waits for it.
+With ``max_rate_hz``, a follower's deliveries sooner than its period after the last one
+left are not left at all (``throttled``): each update sent costs the leader's process
+more than half the CPU a poll costs it, which a busy machine takes from polling."""
 
 from __future__ import annotations
 
 import logging
+import math
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -42,17 +46,24 @@ def default_namespace(swarm: str) -> str:
 @dataclass(frozen=True)
 class Ros2Options:
     """The leader's ROS 2 side: ``domain`` (``ROS_DOMAIN_ID``), ``namespace`` (default
-    ``/wiswarm/<swarm>``) and the application's ``adapter`` (default: bytes). Give it to
+    ``/wiswarm/<swarm>``), the application's ``adapter`` (default: bytes), and
+    ``max_rate_hz``: each follower's updates go out at most this often, the first
+    delivered once the period has passed (default: every delivery). Give it to
     ``LeaderNode(bridge=...)``."""
 
     domain: int = 0
     namespace: str | None = None
     adapter: UpdateAdapter | None = None
+    max_rate_hz: float | None = None
 
     def __post_init__(self) -> None:
         check_domain(self.domain)
         if self.namespace is not None:
             check_namespace(self.namespace)
+        rate = self.max_rate_hz
+        if rate is not None and (isinstance(rate, bool) or not isinstance(rate, int | float)
+                                 or not (math.isfinite(rate) and rate > 0)):
+            raise ValueError(f"max_rate_hz must be a positive number of Hz, got {rate!r}")
 
     def open(self, session: zenoh.Session, swarm: str, control: ControlTarget) -> Ros2Bridge:
         return Ros2Bridge(session, swarm, self, control)
@@ -61,7 +72,8 @@ class Ros2Options:
 class Ros2Bridge:
     """One ROS 2 node, ``<namespace>/wiswarm_leader``, for the leader of ``swarm``, and
     the thread that publishes its deliveries, until ``close()``. ``published`` counts the
-    deliveries sent, ``superseded`` those replaced unsent by a newer one."""
+    deliveries sent, ``superseded`` those replaced unsent by a newer one, ``throttled``
+    those over ``max_rate_hz``."""
 
     def __init__(self, session: zenoh.Session, swarm: str, options: Ros2Options,
                  control: ControlTarget) -> None:
@@ -75,7 +87,9 @@ class Ros2Bridge:
         self._diagnostics = self._node.publisher(DIAGNOSTICS, DIAGNOSTIC_ARRAY)
         self._followers: dict[str, list[Ros2Publisher]] = {}
         self._unsent: Freshest[str, tuple[list[Ros2Publisher], Delivered]] = Freshest()
-        self.published = self.superseded = 0
+        self._period = 0.0 if options.max_rate_hz is None else 1.0 / options.max_rate_hz
+        self._next_at: dict[str, float] = {}  # per follower: the earliest delivery to send
+        self.published = self.superseded = self.throttled = 0
         self._thread = threading.Thread(target=self._publish_deliveries,
                                         name=f"ros2-{swarm}", daemon=True)
         self._thread.start()
@@ -85,11 +99,21 @@ class Ros2Bridge:
         """``<namespace>/<follower>/<leaf>``, the follower's name made a ROS token."""
         return f"{self.namespace}/{ros_token(follower)}/{leaf}"
 
+    def publisher(self, topic: str, type_name: str) -> Ros2Publisher:
+        """A publisher of the application's own on this node (e.g. of what it makes of
+        the updates), undeclared with it; publish from one thread."""
+        return self._node.publisher(topic, type_name)
+
     def deliver(self, event: Delivered) -> None:
         """Leave ``event`` for the publishing thread (on the poll thread: no more)."""
         publishers = self._publishers(event.follower)
-        if any(publisher.listening for publisher in publishers):
-            self.superseded += self._unsent.put(event.follower, (publishers, event)) is not None
+        if not any(publisher.listening for publisher in publishers):
+            return
+        if event.delivered_at < self._next_at.get(event.follower, -math.inf):
+            self.throttled += 1
+            return
+        self._next_at[event.follower] = event.delivered_at + self._period
+        self.superseded += self._unsent.put(event.follower, (publishers, event)) is not None
 
     def _publish_deliveries(self) -> None:
         while (item := self._unsent.take()) is not None:
@@ -139,5 +163,5 @@ class Ros2Bridge:
         self._unsent.close()
         self._thread.join()
         self._node.close()
-        log.info("ROS 2: %d deliveries published, %d superseded unsent by a newer one",
-                 self.published, self.superseded)
+        log.info("ROS 2: %d deliveries published, %d superseded unsent by a newer one, "
+                 "%d over the rate limit", self.published, self.superseded, self.throttled)
