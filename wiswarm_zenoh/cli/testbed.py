@@ -1,8 +1,9 @@
 """``wiswarm testbed up|down|status|set``: the emulated shared channel by hand (Linux, root).
 
 ``up`` builds a persistent channel (two network namespaces, a veth pair, tbf on both
-ends) and says how to start nodes inside it; ``set`` changes its rate mid-run,
-``status`` shows what crossed it, ``down`` removes it.
+ends; or with ``--medium wifi``, ns-3's 802.11 with a station per follower) and says how
+to start nodes inside it; ``set`` changes a tbf channel's rate mid-run, ``status`` shows
+what crossed it, ``down`` removes it.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import Any
 
 from wiswarm_zenoh.options import (
     RUN_ID,
+    TIME,
     OneLineParser,
     UsageError,
     add_channel_arguments,
@@ -26,6 +28,16 @@ from wiswarm_zenoh.testbed import (
     remove_channel,
 )
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
+from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
+from wiswarm_zenoh.testbed.wifi import (
+    MAX_STATIONS,
+    STANDARDS,
+    MediumStats,
+    WifiMedium,
+    WifiSpec,
+    list_media,
+    remove_medium,
+)
 from wiswarm_zenoh.units import format_rate
 
 
@@ -44,7 +56,40 @@ def _how_to_run(channel: Channel) -> str:
     ))
 
 
+def _wifi_how_to_run(medium: WifiMedium) -> str:
+    endpoint = f"tcp/{medium.leader_addr}:{ROUTER_PORT}"
+    cfg = f"--cfg '{NO_SHARED_MEMORY}'"
+    return "\n".join((
+        "run nodes inside it (one follower per station namespace; shared memory off):",
+        f"  ip netns exec {medium.leader_ns} wiswarm router -l {endpoint} {cfg}",
+        f"  ip netns exec {medium.leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
+        f"  ip netns exec {medium.station_namespaces[0]} wiswarm follower --swarm s1 "
+        f"--id uav1 -m client -e {endpoint} {cfg}",
+        f"remove it:       wiswarm testbed down {medium.run_id}",
+    ))
+
+
+def _up_wifi(args: argparse.Namespace) -> int:
+    try:
+        spec = WifiSpec(stations=args.stations, standard=args.standard,
+                        data_mode=args.data_rate, hard_limit_ms=args.hard_limit * 1e3)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    medium = WifiMedium(spec, name=args.name)
+    try:
+        medium.build(persistent=True)
+    except (ValueError, Ns3Unavailable) as exc:
+        raise UsageError(str(exc)) from None
+    print(medium.describe())
+    print(_wifi_how_to_run(medium))
+    print(f"run id: {medium.run_id}")
+    return 0
+
+
 def _up(args: argparse.Namespace) -> int:
+    if args.medium == "wifi":
+        require_testbed()
+        return _up_wifi(args)
     channel = Channel(channel_spec(args), name=args.name)
     require_testbed()
     try:
@@ -59,22 +104,28 @@ def _up(args: argparse.Namespace) -> int:
 
 def _down(args: argparse.Namespace) -> int:
     require_testbed()
+    kinds = (("testbed channel", list_channels, remove_channel),
+             ("WiFi medium", list_media, remove_medium))
     if args.run_id is not None:
-        try:
-            remove_channel(args.run_id)
-        except LookupError:
-            raise UsageError(f"no testbed channel {args.run_id!r} (present: "
-                             f"{', '.join(list_channels()) or 'none'})") from None
-        print(f"removed testbed channel {args.run_id}")
-        return 0
+        for kind, _, remove in kinds:
+            try:
+                remove(args.run_id)
+            except LookupError:
+                continue
+            print(f"removed {kind} {args.run_id}")
+            return 0
+        present = [*list_channels(), *list_media()]
+        raise UsageError(f"no testbed channel or WiFi medium {args.run_id!r} (present: "
+                         f"{', '.join(present) or 'none'})")
     removed = 0
-    for run_id in list_channels():
-        try:
-            remove_channel(run_id)
-        except LookupError:
-            continue  # its owner removed it meanwhile
-        print(f"removed testbed channel {run_id}")
-        removed += 1
+    for kind, present_ids, remove in kinds:
+        for run_id in present_ids():
+            try:
+                remove(run_id)
+            except LookupError:
+                continue  # its owner removed it meanwhile
+            print(f"removed {kind} {run_id}")
+            removed += 1
     if not removed:
         print("no testbed channels to remove")
     return 0
@@ -86,9 +137,29 @@ def _counters(label: str, rate_bps: int, counters: LinkCounters) -> str:
             f"{counters.backlog_bytes} bytes")
 
 
+def _medium_counters(stats: MediumStats) -> str:
+    def total(name: str) -> int:
+        return int(stats.total(name))
+
+    return (f"  air: {total('acked')} frames acknowledged, {total('nacked')} failed "
+            f"transmissions (collisions, retried), {total('drop_retry')} dropped at the "
+            f"retry limit, {total('drop_queue')} refused by full queues, airtime "
+            f"{stats.total('tx_airtime_s'):.1f} s over {stats.t:.0f} s")
+
+
 def _status(args: argparse.Namespace) -> int:
     require_testbed()
     shown = 0
+    for run_id in list_media():
+        try:
+            medium = WifiMedium.attach(run_id)
+        except LookupError:
+            continue  # removed meanwhile
+        if shown:
+            print()
+        print(medium.describe())
+        print(_medium_counters(medium.stats()))
+        shown += 1
     for run_id in list_channels():
         try:
             channel = Channel.attach(run_id)
@@ -150,6 +221,19 @@ def register(subparsers: Any) -> None:
                     "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
                     "Prints what it built, how to start nodes in it, and its run id.")
     add_channel_arguments(up)
+    up.add_argument("--medium", choices=("tbf", "wifi"), default="tbf",
+                    help="tbf: a shaped FIFO link (default); wifi: ns-3's 802.11 at 2.4 GHz "
+                         "in real time, an access point and a station per follower")
+    up.add_argument("--stations", type=int, default=4, metavar="N",
+                    help=f"wifi: stations, one per follower (1-{MAX_STATIONS}); default 4")
+    up.add_argument("--standard", choices=STANDARDS, default="80211g",
+                    help="wifi: the 802.11 standard; default 80211g")
+    up.add_argument("--data-rate", metavar="MODE",
+                    help="wifi: the data rate, an ns-3 WifiMode (ErpOfdmRate24Mbps, "
+                         "HtMcs7); default the standard's: 24 Mbit/s for g, MCS 7 for n")
+    up.add_argument("--hard-limit", type=TIME, default=0.1, metavar="TIME",
+                    help="wifi: the largest lag behind real time before the run fails "
+                         "loudly; default 100ms")
     up.add_argument("--name", type=RUN_ID,
                     help="the run id to use: 1-24 letters, digits, '-' or '_' (default: "
                     "made up, printed)")
