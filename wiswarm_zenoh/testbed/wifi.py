@@ -88,6 +88,31 @@ class MediumStats:
         return sum(node[name] for node in self.nodes[1 if stations_only else 0:])
 
 
+def window_counters(first: MediumStats, last: MediumStats, span: float) -> dict[str, float]:
+    """The medium over a run's window: frames each way per second, failed transmissions
+    (not acknowledged: collisions and errors, each then retried) and their share of all
+    transmissions, drops at the retry limit and at full queues, the air's busy share
+    (every node's transmit time over the window) and the largest lag behind real time."""
+    if not (first.nodes and last.nodes) or span <= 0:
+        return {"max_lag_ms": last.max_lag_ms}
+
+    def delta(name: str, stations_only: bool = False) -> float:
+        return last.total(name, stations_only) - first.total(name, stations_only)
+
+    acked, failed = delta("acked"), delta("nacked")
+    return {
+        "uplink_frames_per_s": delta("from_tap", stations_only=True) / span,
+        "downlink_frames_per_s": (last.nodes[0]["from_tap"] - first.nodes[0]["from_tap"])
+        / span,
+        "failed_tx": failed,
+        "failed_tx_share": failed / (acked + failed) if acked + failed else 0.0,
+        "retry_drops": delta("drop_retry"),
+        "queue_drops": delta("drop_queue"),
+        "airtime_share": delta("tx_airtime_s") / span,
+        "max_lag_ms": last.max_lag_ms,
+    }
+
+
 def _ns(run_id: str, node: int) -> str:
     return f"{NS_PREFIX}{run_id}-{'ap' if node == 0 else f's{node}'}"
 

@@ -116,9 +116,10 @@ struct Counters
     uint64_t macTx = 0;        // MSDUs the MAC accepted from above
     uint64_t macRx = 0;        // MSDUs the MAC handed up
     uint64_t acked = 0;        // MPDUs acknowledged
-    uint64_t nacked = 0;       // transmissions not acknowledged (collisions, errors): retried
+    uint64_t nacked = 0;       // transmissions whose ack never came (collisions, errors)
     uint64_t dropRetry = 0;    // MPDUs dropped after the retry limit
-    uint64_t dropQueue = 0;    // frames the queue refused (full) or aged out
+    uint64_t dropQueue = 0;    // MPDUs aged out of the queue (off: MaxDelay is an hour)
+    uint64_t enqueued = 0;     // data MPDUs the queue took: macTx - enqueued were refused
     uint64_t phyRxDrop = 0;    // receptions the PHY failed (collisions, preamble missed)
     double txAirtime = 0;      // seconds transmitting
 };
@@ -153,6 +154,7 @@ class TapGlue : public SimpleRefCount<TapGlue>
   public:
     TapGlue(uint32_t index, Ptr<NetDevice> device, int fd)
         : m_index(index),
+          m_nodeId(device->GetNode()->GetId()),
           m_device(device),
           m_fd(fd)
     {
@@ -173,10 +175,12 @@ class TapGlue : public SimpleRefCount<TapGlue>
         return true;
     }
 
-    // The reader thread: hand the frame to the simulation at the current real time.
+    // The reader thread: hand the frame to the simulation at the current real time. No
+    // Ptr is touched here: their reference counts are not thread-safe (a race there
+    // disposed a node's PHY mid-run: "Unsupported Wi-Fi modulation class").
     void FromTap(uint8_t* buf, ssize_t len)
     {
-        Simulator::ScheduleWithContext(m_device->GetNode()->GetId(),
+        Simulator::ScheduleWithContext(m_nodeId,
                                        Seconds(0),
                                        MakeEvent(&TapGlue::Send, this, buf, len));
     }
@@ -236,6 +240,7 @@ class TapGlue : public SimpleRefCount<TapGlue>
     }
 
     uint32_t m_index;
+    uint32_t m_nodeId;
     Ptr<NetDevice> m_device;
     int m_fd;
     Ptr<TapReader> m_reader;
@@ -261,9 +266,12 @@ OnMacRx(std::string ctx, Ptr<const Packet>)
 }
 
 void
-OnMacTxDrop(std::string ctx, Ptr<const Packet>)
+OnEnqueue(std::string ctx, Ptr<const WifiMpdu> mpdu)
 {
-    g_counters[NodeOf(ctx)].dropQueue++;
+    if (mpdu->GetHeader().IsData())
+    {
+        g_counters[NodeOf(ctx)].enqueued++;
+    }
 }
 
 void
@@ -273,7 +281,13 @@ OnAcked(std::string ctx, Ptr<const WifiMpdu>)
 }
 
 void
-OnNacked(std::string ctx, Ptr<const WifiMpdu>)
+OnMpduTimeout(std::string ctx, uint8_t, Ptr<const WifiMpdu>, const WifiTxVector&)
+{
+    g_counters[NodeOf(ctx)].nacked++;
+}
+
+void
+OnPsduTimeout(std::string ctx, uint8_t, Ptr<const WifiPsdu>, const WifiTxVector&)
 {
     g_counters[NodeOf(ctx)].nacked++;
 }
@@ -352,7 +366,7 @@ PrintStats(const char* event)
             << ",\"foreign_source\":" << c.foreignSource << ",\"mac_tx\":" << c.macTx
             << ",\"mac_rx\":" << c.macRx << ",\"acked\":" << c.acked
             << ",\"nacked\":" << c.nacked << ",\"drop_retry\":" << c.dropRetry
-            << ",\"drop_queue\":" << c.dropQueue << ",\"phy_rx_drop\":" << c.phyRxDrop
+            << ",\"drop_queue\":" << c.dropQueue + (c.macTx - std::min(c.macTx, c.enqueued)) << ",\"phy_rx_drop\":" << c.phyRxDrop
             << ",\"tx_airtime_s\":" << c.txAirtime << "}";
     }
     out << "]}";
@@ -521,9 +535,20 @@ main(int argc, char** argv)
     const std::string dev = "/NodeList/*/DeviceList/*/$ns3::WifiNetDevice/";
     Config::Connect(dev + "Mac/MacTx", MakeCallback(&OnMacTx));
     Config::Connect(dev + "Mac/MacRx", MakeCallback(&OnMacRx));
-    Config::Connect(dev + "Mac/MacTxDrop", MakeCallback(&OnMacTxDrop));
+    // A full queue refuses what arrives without a trace (ns-3.37: neither DroppedMpdu nor
+    // the queue's Drop fire): counted as what the MAC took (MacTx) and its queue did not
+    // (Enqueue; the best-effort queue: 802.11g's only one, 802.11n's for untagged traffic).
+    for (uint32_t i = 0; i <= stations; i++)
+    {
+        Ptr<WifiMac> wifiMac = DynamicCast<WifiNetDevice>(devices.Get(i))->GetMac();
+        Ptr<WifiMacQueue> queue = wifiMac->GetTxopQueue(wifiMac->GetQosSupported() ? AC_BE
+                                                                                 : AC_BE_NQOS);
+        queue->TraceConnect("Enqueue", "/NodeList/" + std::to_string(i) + "/",
+                            MakeCallback(&OnEnqueue));
+    }
     Config::Connect(dev + "Mac/AckedMpdu", MakeCallback(&OnAcked));
-    Config::Connect(dev + "Mac/NAckedMpdu", MakeCallback(&OnNacked));
+    Config::Connect(dev + "Mac/MpduResponseTimeout", MakeCallback(&OnMpduTimeout));
+    Config::Connect(dev + "Mac/PsduResponseTimeout", MakeCallback(&OnPsduTimeout));
     Config::Connect(dev + "Mac/DroppedMpdu", MakeCallback(&OnDropped));
     Config::Connect(dev + "Phy/PhyRxDrop", MakeCallback(&OnPhyRxDrop));
     Config::Connect(dev + "Phy/State/State", MakeCallback(&OnPhyState));
