@@ -57,6 +57,11 @@ def _one_line_error(capsys: pytest.CaptureFixture[str], argv: Sequence[str]) -> 
     ["testbed", "set", "--rate", "-5mbit"],
     ["testbed", "set"],
     ["testbed", "sideways"],
+    ["testbed", "up", "--medium", "radio"],
+    ["testbed", "up", "--medium", "wifi", "--stations", "0"],
+    ["testbed", "up", "--medium", "wifi", "--stations", "many"],
+    ["testbed", "up", "--medium", "wifi", "--standard", "80211b"],
+    ["testbed", "up", "--medium", "wifi", "--hard-limit", "0"],
 ])
 def test_bad_input_is_one_line_and_exit_2(capsys: pytest.CaptureFixture[str],
                                           argv: list[str]) -> None:

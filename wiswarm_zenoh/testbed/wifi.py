@@ -278,7 +278,7 @@ class WifiMedium:
                                    "`wiswarm testbed down`")
             self.subnet, self.persistent = subnet, persistent
             owner = 0 if persistent else os.getpid()
-            self._record = {"run_id": self.run_id, "owner_pid": owner,
+            self._record: dict[str, Any] = {"run_id": self.run_id, "owner_pid": owner,
                             "owner_start": process_start(owner) if owner else 0,
                             "subnet": subnet, "spec": asdict(self.spec),
                             "scenario_pid": 0, "scenario_start": None}
@@ -354,6 +354,12 @@ class WifiMedium:
             text = _paths(self.run_id)[2].read_text().strip()
             return text[-500:] or "no message"
         return "no message"
+
+    @property
+    def scenario_process(self) -> tuple[int, int | None]:
+        """The ns-3 scenario's pid and start time (clock ticks), as recorded."""
+        record = _load(self.run_id) or self._record
+        return int(record["scenario_pid"]), record["scenario_start"]
 
     def stats(self) -> MediumStats:
         """The scenario's last counters (cumulative since it started)."""
