@@ -24,6 +24,7 @@ from wiswarm_zenoh.options import (
     RATE,
     SEED,
     TIME,
+    ArgType,
     UsageError,
     finite_float,
     positive_float,
@@ -32,8 +33,17 @@ from wiswarm_zenoh.options import (
     writable_dir,
 )
 from wiswarm_zenoh.testbed import ChannelSpec
+from wiswarm_zenoh.testbed.wifi import WifiSpec
 
 log = logging.getLogger(__name__)
+
+
+def _channel(text: str) -> int | str:
+    """``wifi``, or a rate in tc's spelling (bits/s)."""
+    return "wifi" if text == "wifi" else RATE.parse(text)
+
+
+CHANNEL = ArgType("channel (a rate or wifi)", _channel)
 
 
 def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
@@ -60,9 +70,10 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the leader's polling policy (wiswarm)")
     parser.add_argument("--warmup", type=finite_float(0.0), default=2.0,
                         help="seconds before the cars start, to settle (default 2)")
-    parser.add_argument("--channel", type=RATE, metavar="RATE",
+    parser.add_argument("--channel", type=CHANNEL, metavar="RATE|wifi",
                         help="put the UAVs behind an emulated shared channel of this rate "
-                        "each way, e.g. 20mbit (Linux, root: network namespaces and tc tbf; "
+                        "each way, e.g. 20mbit, or make each a station of ns-3's 802.11g "
+                        "(wifi) (Linux, root: network namespaces and tc tbf or ns-3; "
                         "the UAVs are then Zenoh clients of the leader side's router)")
     parser.add_argument("--channel-queue", type=TIME, default=0.2,
                         metavar="TIME", help="the channel's queue (tbf latency, default 200ms)")
@@ -86,8 +97,8 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
 
 def options_from(args: argparse.Namespace) -> demo.DemoOptions:
     try:
-        channel = None if args.channel is None else ChannelSpec(
-            rate_bps=args.channel, queue_s=args.channel_queue)
+        channel = (None if args.channel is None else WifiSpec() if args.channel == "wifi"
+                   else ChannelSpec(rate_bps=args.channel, queue_s=args.channel_queue))
         return demo.DemoOptions(
             uavs=args.uavs, duration_s=args.duration, seed=args.seed, system=args.system,
             rate_hz=args.rate, frame_px=args.frame_size, vehicle=args.vehicle,

@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from multiprocessing import connection
 from typing import Literal
 
@@ -39,6 +39,7 @@ from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
+from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 from wiswarm_zenoh.transport import (
     Children,
     LeaderNode,
@@ -75,7 +76,8 @@ class DemoOptions:
     warmup_s: float = 2.0
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
-    channel: ChannelSpec | None = None  # the UAVs behind the emulated channel (root)
+    # the UAVs behind the emulated channel, or each a station of the WiFi medium (root)
+    channel: ChannelSpec | WifiSpec | None = None
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
 
     def __post_init__(self) -> None:
@@ -179,7 +181,10 @@ class _Sides:
     uav: SessionSpec
     leader: SessionSpec
     leader_ns: str | None = None  # None: all on this host's loopback
-    uav_ns: str | None = None
+    uav_ns: tuple[str | None, ...] = (None,)  # UAV i's: its own, or all one side's
+
+    def uav_ns_of(self, index: int) -> str | None:
+        return self.uav_ns[index % len(self.uav_ns)]
 
 
 def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
@@ -188,11 +193,19 @@ def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
         port = free_tcp_port()
         uav = SessionSpec.loopback(options.mode, connect_ports=[port])
         return _Sides(SessionSpec.loopback("router", port), uav, uav)
+    if isinstance(options.channel, WifiSpec):
+        medium = stack.enter_context(WifiMedium(replace(options.channel,
+                                                        stations=options.uavs)))
+        log.info("%s", medium.describe())
+        stations = tuple(medium.station_namespaces)
+        place = Placement(medium.leader_ns, stations[0], medium.leader_addr)
+        return _Sides(place.router(), place.follower(), place.leader(), medium.leader_ns,
+                      stations)
     channel = stack.enter_context(Channel(options.channel))
     log.info("%s", channel.describe())
     place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
     return _Sides(place.router(), place.follower(), place.leader(), channel.leader_ns,
-                  channel.follower_ns)
+                  (channel.follower_ns,))
 
 
 def _start(children: Children, name: str, ns: str | None, target: Callable[..., object],
@@ -215,7 +228,7 @@ def run(options: DemoOptions) -> DemoRun:
         for index, uav in enumerate(options.uav_ids):
             mine, theirs = ctx.Pipe()
             links[uav] = UavLink(mine)
-            _start(children, uav, sides.uav_ns, run_uav, sides.uav,
+            _start(children, uav, sides.uav_ns_of(index), run_uav, sides.uav,
                    options.uav_options(index), UavLink(theirs), wait=False)
         children.wait_ready()
 

@@ -12,14 +12,16 @@ import csv
 import json
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from apps.tracking.demo import DemoRun
+from apps.tracking.demo import DemoOptions, DemoRun
 from apps.tracking.reception import DeliveryRow
 from apps.tracking.uav_app import SAMPLE_FIELDS
+from wiswarm_zenoh.testbed import ChannelSpec
 
 MAIN_KEYS = ("mean_aoi_s", "p95_aoi_s", "mean_tracking_error_m", "in_view_share")
 UAV_KEYS = (*MAIN_KEYS, "peak_aoi_s", "p95_tracking_error_m", "mean_tracking_error_px",
@@ -63,6 +65,17 @@ def average(per_uav: Iterable[dict[str, Number]]) -> dict[str, Number]:
     return out
 
 
+def _channel(options: DemoOptions) -> dict[str, object] | None:
+    """What the UAVs were behind: the tbf channel's shape, or the WiFi medium's."""
+    channel = options.channel
+    if channel is None:
+        return None
+    if isinstance(channel, ChannelSpec):
+        return {"rate_bps": channel.rate_bps, "down_rate_bps": channel.down_bps,
+                "queue_s": channel.queue_s, "burst_bytes": channel.burst_bytes}
+    return {"medium": "wifi", **asdict(channel)}
+
+
 def summarise(run: DemoRun) -> dict[str, object]:
     options = run.options
     per_uav = {uav: uav_summary(run, uav) for uav in options.uav_ids}
@@ -74,9 +87,7 @@ def summarise(run: DemoRun) -> dict[str, object]:
         "measured_s": run.measured_s, "seed": options.seed, "rate_hz": options.rate,
         "frame_px": options.frame_px, "vehicle": options.vehicle, "motion": options.motion,
         "policy": options.policy if options.system == "wiswarm" else None,
-        "channel": None if options.channel is None else {
-            "rate_bps": options.channel.rate_bps, "down_rate_bps": options.channel.down_bps,
-            "queue_s": options.channel.queue_s, "burst_bytes": options.channel.burst_bytes},
+        "channel": _channel(options),
         "per_uav": per_uav,
         "average": average(per_uav.values()),
         "leader": {

@@ -13,13 +13,14 @@ from typing import Any
 
 from wiswarm_zenoh.options import (
     RUN_ID,
-    TIME,
     OneLineParser,
     UsageError,
     add_channel_arguments,
+    add_medium_arguments,
     add_rates,
     channel_spec,
     require_testbed,
+    wifi_spec,
 )
 from wiswarm_zenoh.testbed import (
     Channel,
@@ -30,8 +31,6 @@ from wiswarm_zenoh.testbed import (
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
 from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
 from wiswarm_zenoh.testbed.wifi import (
-    MAX_STATIONS,
-    STANDARDS,
     MediumStats,
     WifiMedium,
     WifiSpec,
@@ -69,12 +68,7 @@ def _wifi_how_to_run(medium: WifiMedium) -> str:
     ))
 
 
-def _up_wifi(args: argparse.Namespace) -> int:
-    try:
-        spec = WifiSpec(stations=args.stations, standard=args.standard,
-                        data_mode=args.data_rate, hard_limit_ms=args.hard_limit * 1e3)
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+def _up_wifi(args: argparse.Namespace, spec: WifiSpec) -> int:
     medium = WifiMedium(spec, name=args.name)
     try:
         medium.build(persistent=True)
@@ -87,9 +81,10 @@ def _up_wifi(args: argparse.Namespace) -> int:
 
 
 def _up(args: argparse.Namespace) -> int:
-    if args.medium == "wifi":
+    spec = wifi_spec(args, args.stations)
+    if spec is not None:
         require_testbed()
-        return _up_wifi(args)
+        return _up_wifi(args, spec)
     channel = Channel(channel_spec(args), name=args.name)
     require_testbed()
     try:
@@ -221,19 +216,7 @@ def register(subparsers: Any) -> None:
                     "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
                     "Prints what it built, how to start nodes in it, and its run id.")
     add_channel_arguments(up)
-    up.add_argument("--medium", choices=("tbf", "wifi"), default="tbf",
-                    help="tbf: a shaped FIFO link (default); wifi: ns-3's 802.11 at 2.4 GHz "
-                         "in real time, an access point and a station per follower")
-    up.add_argument("--stations", type=int, default=4, metavar="N",
-                    help=f"wifi: stations, one per follower (1-{MAX_STATIONS}); default 4")
-    up.add_argument("--standard", choices=STANDARDS, default="80211g",
-                    help="wifi: the 802.11 standard; default 80211g")
-    up.add_argument("--data-rate", metavar="MODE",
-                    help="wifi: the data rate, an ns-3 WifiMode (ErpOfdmRate24Mbps, "
-                         "HtMcs7); default the standard's: 24 Mbit/s for g, MCS 7 for n")
-    up.add_argument("--hard-limit", type=TIME, default=0.1, metavar="TIME",
-                    help="wifi: the largest lag behind real time before the run fails "
-                         "loudly; default 100ms")
+    add_medium_arguments(up, stations=True)
     up.add_argument("--name", type=RUN_ID,
                     help="the run id to use: 1-24 letters, digits, '-' or '_' (default: "
                     "made up, printed)")

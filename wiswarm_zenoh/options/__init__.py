@@ -32,10 +32,12 @@ from wiswarm_zenoh.options.progress import ProgressBar, show_written
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
+    add_medium_arguments,
     add_rates,
     channel_spec,
     parse_size,
     require_testbed,
+    wifi_spec,
 )
 from wiswarm_zenoh.units import format_rate
 from wiswarm_zenoh.usage import OneLineParser, UsageError
@@ -56,6 +58,7 @@ __all__ = [
     "ProgressBar",
     "UsageError",
     "add_channel_arguments",
+    "add_medium_arguments",
     "add_rate_grid",
     "add_rates",
     "add_zenoh_arguments",
@@ -74,6 +77,7 @@ __all__ = [
     "positive_int",
     "require_testbed",
     "show_written",
+    "wifi_spec",
     "writable_dir",
     "writable_file",
 ]

@@ -9,6 +9,9 @@ below that share (link rate / (N x frame bits)), measures the next rate up, and 
 towards the better side until a rate is worse than the one before it: a bracket of
 three neighbours, usually two to four runs instead of ten.
 
+With ``medium`` set, every run goes over ns-3's WiFi medium instead, a station per
+follower (``wifi``), built once per worker with as many stations as the largest N.
+
 Runs go to ``parallel`` workers, each with a channel of its own (the channels are
 independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per channel the
 CPU is not what limits a run). A run's measurements are kept as they complete, so a
@@ -21,13 +24,21 @@ import logging
 import queue
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.testbed.channel import Channel
-from wiswarm_zenoh.testbed.run import SYSTEMS, WISWARM_SAMPLE_RATE, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.run import (
+    SYSTEMS,
+    WISWARM_SAMPLE_RATE,
+    Medium,
+    RunOutcome,
+    RunSpec,
+    measure,
+)
 from wiswarm_zenoh.testbed.spec import ChannelSpec
+from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
 log = logging.getLogger(__name__)
@@ -57,6 +68,7 @@ class StudyConfig:
     frame_bytes: int = FRAME_BYTES
     channel: ChannelSpec = field(default_factory=ChannelSpec)
     parallel: int = 1
+    medium: WifiSpec | None = None  # None: the tbf channel
 
     def __post_init__(self) -> None:
         check_study(self.ns, self.rates, self.batches)
@@ -74,7 +86,14 @@ class StudyConfig:
 
     def share_fps(self, n: int) -> float:
         """Frames per second per follower that the uplink carries when N share it."""
-        return share_fps(self.channel.rate_bps, n, self.frame_bytes)
+        rate = self.channel.rate_bps if self.medium is None else self.medium.capacity_bps
+        return share_fps(rate, n, self.frame_bytes)
+
+    def build_medium(self) -> Medium:
+        """A worker's own channel, or WiFi medium with a station for the largest N."""
+        if self.medium is None:
+            return Channel(self.channel)
+        return WifiMedium(replace(self.medium, stations=max(self.ns)))
 
     @property
     def estimated_runs(self) -> int:
@@ -163,7 +182,7 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
     completed = [0]
     failures: list[BaseException] = []
 
-    def run_on(channel: Channel) -> Measure:
+    def run_on(channel: Medium) -> Measure:
         def run(spec: RunSpec) -> RunOutcome:
             if stop.is_set():
                 raise _Stopped
@@ -183,7 +202,7 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
 
     def worker(done: threading.Event) -> None:
         try:
-            with Channel(config.channel) as channel:
+            with config.build_medium() as channel:
                 run = run_on(channel)
                 while not stop.is_set():
                     try:

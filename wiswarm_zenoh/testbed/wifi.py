@@ -22,6 +22,7 @@ import itertools
 import json
 import logging
 import os
+import re
 import select
 import signal
 import subprocess
@@ -46,6 +47,8 @@ STANDARDS = ("80211g", "80211n")
 MAX_STATIONS = 30
 SUBNETS = range(1, 255)  # medium k: AP 10.203.k.1, station i 10.203.k.(i + 1)
 STOP_TIMEOUT = 5.0
+HT_20MHZ_MBPS = (6.5, 13.0, 19.5, 26.0, 39.0, 52.0, 58.5, 65.0)  # MCS 0-7, long guard
+SATURATED_SHARE = 0.7
 _counter = itertools.count()
 
 
@@ -64,6 +67,31 @@ class WifiSpec:
     data_mode: str | None = None
     hard_limit_ms: float = 100.0
 
+    @property
+    def phy_rate_bps(self) -> float:
+        """The data rate's bits/s on air (ErpOfdmRate<R>Mbps, HtMcs<k> at 20 MHz)."""
+        mode = self.data_mode or ("ErpOfdmRate24Mbps" if self.standard == "80211g"
+                                  else "HtMcs7")
+        erp = re.fullmatch(r"ErpOfdmRate(\d+)Mbps", mode)
+        if erp:
+            return float(erp.group(1)) * 1e6
+        ht = re.fullmatch(r"HtMcs(\d+)", mode)
+        if ht and int(ht.group(1)) < len(HT_20MHZ_MBPS):
+            return HT_20MHZ_MBPS[int(ht.group(1))] * 1e6
+        raise ValueError(f"data_mode {mode!r}: use ErpOfdmRate<R>Mbps (802.11g) or "
+                         "HtMcs0..HtMcs7 (802.11n)")
+
+    @property
+    def capacity_bps(self) -> float:
+        """Payload bits/s the air carries for saturated stations: a start for the
+        best-rate search (measured: 16.8 of 24 Mbit/s for 802.11g), not a result."""
+        return SATURATED_SHARE * self.phy_rate_bps
+
+    def describe(self) -> str:
+        return (f"ns-3 {self.standard} at 2.4 GHz, "
+                f"{self.data_mode or 'default'} ({self.phy_rate_bps / 1e6:g} Mbit/s), "
+                f"hard lag limit {self.hard_limit_ms:g} ms")
+
     def __post_init__(self) -> None:
         if not (isinstance(self.stations, int) and 1 <= self.stations <= MAX_STATIONS):
             raise ValueError(f"stations must be in [1, {MAX_STATIONS}], got {self.stations!r}")
@@ -72,6 +100,7 @@ class WifiSpec:
                              f"got {self.standard!r}")
         if not self.hard_limit_ms > 0:
             raise ValueError(f"hard_limit_ms must be > 0, got {self.hard_limit_ms!r}")
+        _ = self.phy_rate_bps  # the data rate's own check, naming the field
 
 
 @dataclass(frozen=True)
