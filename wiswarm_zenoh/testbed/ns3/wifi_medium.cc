@@ -1,7 +1,8 @@
 // The WiFi medium of the testbed: one 2.4 GHz 802.11 channel in ns-3, node 0 an access
 // point, nodes 1..N stations, each node's device joined to a tap inside a Linux network
-// namespace, in real time under a hard limit on lag (or, with --taps=0 and saturated
-// traffic generators, as a plain simulation at any speed, for checking our own model).
+// namespace, in real time under a hard limit on lag (or, with --taps=0 and
+// the paper's workloads generated inside, as a plain simulation at any speed, for checking
+// our own 802.11 model against it).
 //
 // Why not ns-3's TapBridge: in UseLocal mode it rewrites the WiFi device's MAC address
 // from the first frame it reads, after the station has associated under another address;
@@ -29,6 +30,7 @@
 #include "ns3/wifi-module.h"
 
 #include <atomic>
+#include <cmath>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -125,6 +127,7 @@ struct Counters
 };
 
 std::vector<Counters> g_counters;
+std::ostream* g_stats = &std::cout;
 
 class TapReader : public FdReader
 {
@@ -314,43 +317,193 @@ OnPhyState(std::string ctx, Time, Time duration, WifiPhyState state)
     }
 }
 
-// --- traffic of the pure simulation (--taps=0): station i sends frames to the AP ---
+// --- the pure simulation (--taps=0): the paper's workloads at MAC level, AoI at the AP ---
+//
+// A frame of --frameBytes leaves a station as MTU-sized MSDUs (as IP fragments do); the AP
+// takes it as delivered when all of them came (a lost one loses the frame, as for UDP).
+// push: each station offers a frame every 1/--pushRate s into its MAC queue (drop-tail
+// at --queuePackets). wiswarm: the AP polls the stations in turn (round robin: the
+// Whittle index's order for equal links), a poll being one small frame; the polled
+// station answers with its camera's freshest frame (100 fps); the next poll leaves when
+// the answer is complete, or after a timeout.
 
-/// Sends ``frameBytes`` in MTU-sized packets every 1/rate s (rate 0: keep the queue full).
+constexpr uint32_t kFragment = 1472;
+constexpr double kSampleRate = 100.0;
+constexpr double kPollTimeout = 0.1;
+
+/// What every MSDU carries: its station, frame, generation time and place in the frame.
+struct Tag
+{
+    uint32_t station;
+    uint32_t frame;
+    double generated;
+    uint16_t index;
+    uint16_t count;
+};
+
+/// Time-average age of information of one station at the AP, from ``start`` on.
+struct Age
+{
+    double start = 0;
+    double last = 0;      // time of the last update of ``area``
+    double freshest = 0;  // generation time of the freshest frame delivered
+    double area = 0;
+    uint64_t frames = 0;
+    uint32_t current = UINT32_MAX; // frame being reassembled
+    uint16_t got = 0;
+
+    void Advance(double now)
+    {
+        if (now <= start)
+        {
+            return;
+        }
+        double from = std::max(last, start);
+        // the age grows linearly from (from - freshest) to (now - freshest)
+        area += (now - from) * ((from - freshest) + (now - freshest)) / 2;
+        last = now;
+    }
+
+    void Deliver(double now, double generated)
+    {
+        Advance(now);
+        last = now;
+        if (now >= start)
+        {
+            frames++;
+        }
+        freshest = std::max(freshest, generated);
+    }
+};
+
+std::vector<Age> g_ages;
+uint32_t g_fragments = 1;
+double g_warmup = 2.0;
+
+void
+SendFrame(Ptr<NetDevice> device, Address to, uint32_t station, uint32_t frame, double generated)
+{
+    for (uint16_t i = 0; i < g_fragments; i++)
+    {
+        Tag tag{station, frame, generated, i, static_cast<uint16_t>(g_fragments)};
+        std::vector<uint8_t> bytes(kFragment, 0);
+        std::memcpy(bytes.data(), &tag, sizeof(tag));
+        device->Send(Create<Packet>(bytes.data(), bytes.size()), to, 0x0800);
+    }
+}
+
 class Pusher : public SimpleRefCount<Pusher>
 {
   public:
-    Pusher(Ptr<NetDevice> device, Address ap, uint32_t frameBytes, double rate)
+    Pusher(Ptr<NetDevice> device, Address ap, uint32_t station, double rate)
         : m_device(device),
           m_ap(ap),
-          m_frameBytes(frameBytes),
+          m_station(station),
           m_rate(rate)
     {
     }
 
     void Tick()
     {
-        for (uint32_t left = m_frameBytes; left > 0;)
-        {
-            uint32_t size = std::min<uint32_t>(left, 1472);
-            m_device->Send(Create<Packet>(size), m_ap, 0x0800);
-            left -= size;
-        }
+        SendFrame(m_device, m_ap, m_station, m_frame++, Simulator::Now().GetSeconds());
         Simulator::Schedule(Seconds(1.0 / m_rate), &Pusher::Tick, this);
     }
 
   private:
     Ptr<NetDevice> m_device;
     Address m_ap;
-    uint32_t m_frameBytes;
+    uint32_t m_station;
     double m_rate;
+    uint32_t m_frame = 0;
 };
+
+/// The AP's side of the pure simulation: reassembly, AoI, and (wiswarm) the polls.
+class Collector : public SimpleRefCount<Collector>
+{
+  public:
+    Collector(NetDeviceContainer devices, bool polling)
+        : m_devices(devices),
+          m_polling(polling)
+    {
+        devices.Get(0)->SetReceiveCallback(MakeCallback(&Collector::AtAp, this));
+        for (uint32_t i = 1; i < devices.GetN(); i++)
+        {
+            devices.Get(i)->SetReceiveCallback(MakeCallback(&Collector::AtStation, this));
+        }
+    }
+
+    void Poll()
+    {
+        m_next = m_next % (m_devices.GetN() - 1) + 1;
+        m_awaiting = m_next;
+        Simulator::Cancel(m_timeout);
+        m_timeout = Simulator::Schedule(Seconds(kPollTimeout), &Collector::Poll, this);
+        std::vector<uint8_t> poll(64, 0);
+        m_devices.Get(0)->Send(Create<Packet>(poll.data(), poll.size()),
+                               m_devices.Get(m_next)->GetAddress(), 0x0800);
+    }
+
+  private:
+    bool AtStation(Ptr<NetDevice> device, Ptr<const Packet>, uint16_t, const Address&)
+    {
+        // a poll: answer with the camera's freshest frame
+        double now = Simulator::Now().GetSeconds();
+        double generated = std::floor(now * kSampleRate) / kSampleRate;
+        uint32_t station = device->GetNode()->GetId();
+        SendFrame(device, m_devices.Get(0)->GetAddress(), station, m_frames[station]++,
+                  generated);
+        return true;
+    }
+
+    bool AtAp(Ptr<NetDevice>, Ptr<const Packet> packet, uint16_t, const Address&)
+    {
+        Tag tag;
+        packet->CopyData(reinterpret_cast<uint8_t*>(&tag), sizeof(tag));
+        Age& age = g_ages[tag.station];
+        if (tag.frame != age.current)
+        {
+            age.current = tag.frame;
+            age.got = 0;
+        }
+        if (++age.got == tag.count)
+        {
+            age.Deliver(Simulator::Now().GetSeconds(), tag.generated);
+            if (m_polling && tag.station == m_awaiting)
+            {
+                Poll();
+            }
+        }
+        return true;
+    }
+
+    NetDeviceContainer m_devices;
+    bool m_polling;
+    uint32_t m_next = 0;
+    uint32_t m_awaiting = 0;
+    EventId m_timeout;
+    std::map<uint32_t, uint32_t> m_frames;
+};
+
+void
+PrintAges(double end)
+{
+    std::ostringstream out;
+    out << "{\"event\":\"aoi\",\"window_s\":" << end - g_warmup << ",\"stations\":[";
+    for (size_t i = 1; i < g_ages.size(); i++)
+    {
+        Age& age = g_ages[i];
+        age.Advance(end);
+        out << (i > 1 ? "," : "") << "{\"mean_aoi_s\":" << age.area / (end - g_warmup)
+            << ",\"frames\":" << age.frames << "}";
+    }
+    out << "]}";
+    *g_stats << out.str() << std::endl;
+}
 
 double g_maxLag = 0;
 double g_hardLimit = 0;
 double g_statsPeriod = 1;
 double g_nextStats = 0;
-std::ostream* g_stats = &std::cout;
 
 void
 PrintStats(const char* event)
@@ -414,10 +567,12 @@ main(int argc, char** argv)
     bool taps = true;
     double hardLimitMs = 100;
     double duration = 0;
-    uint32_t frameBytes = 49 * 1024;
-    double pushRate = 0;
+    uint32_t frameBytes = 50176;
+    double pushRate = 50;
+    std::string system = "push";
     uint32_t queuePackets = 500;
     uint32_t seed = 1;
+    bool ampdu = true;
     int rtPriority = 10;
     CommandLine cmd(__FILE__);
     cmd.AddValue("stations", "stations (followers), besides the access point", stations);
@@ -435,8 +590,11 @@ main(int argc, char** argv)
     cmd.AddValue("statsPeriod", "seconds between stats lines", g_statsPeriod);
     cmd.AddValue("frameBytes", "pure simulation: bytes per pushed frame", frameBytes);
     cmd.AddValue("pushRate", "pure simulation: frames/s each station pushes", pushRate);
+    cmd.AddValue("system", "pure simulation: push or wiswarm (round-robin polls)", system);
+    cmd.AddValue("warmup", "pure simulation: seconds before the AoI window opens", g_warmup);
     cmd.AddValue("queuePackets", "WifiMacQueue size (packets)", queuePackets);
     cmd.AddValue("rtPriority", "SCHED_RR priority in real time (0: none)", rtPriority);
+    cmd.AddValue("ampdu", "802.11n: aggregate MPDUs (A-MPDU, ns-3's default)", ampdu);
     cmd.AddValue("seed", "run number of the random streams", seed);
     cmd.Parse(argc, argv);
 
@@ -515,6 +673,10 @@ main(int argc, char** argv)
     {
         Fail("--standard must be 80211g or 80211n, got " + standard);
     }
+    if (!ampdu)
+    {
+        Config::SetDefault("ns3::WifiMac::BE_MaxAmpduSize", UintegerValue(0));
+    }
     WifiMacHelper mac;
     Ssid ssid("wiswarm");
     mac.SetType("ns3::ApWifiMac", "Ssid", SsidValue(ssid));
@@ -574,15 +736,37 @@ main(int argc, char** argv)
             glue.push_back(Create<TapGlue>(i, devices.Get(i), OpenTap(nsList[i], tap)));
         }
     }
-    else
+    Ptr<Collector> collector;
+    if (!taps)
     {
-        for (uint32_t i = 1; i <= stations; i++)
+        if (system != "push" && system != "wiswarm")
         {
-            auto pusher = Create<Pusher>(devices.Get(i), devices.Get(0)->GetAddress(),
-                                         frameBytes, pushRate);
-            // Start after association, staggered as cameras are.
-            Simulator::Schedule(Seconds(1.0 + 0.001 * i), &Pusher::Tick, pusher);
+            Fail("--system must be push or wiswarm, got " + system);
+        }
+        if (duration <= g_warmup)
+        {
+            Fail("--duration must exceed --warmup in a pure simulation");
+        }
+        g_fragments = (frameBytes + kFragment - 1) / kFragment;
+        g_ages.resize(stations + 1);
+        for (Age& age : g_ages)
+        {
+            age.start = g_warmup;
+        }
+        collector = Create<Collector>(devices, system == "wiswarm");
+        Ptr<UniformRandomVariable> phase = CreateObject<UniformRandomVariable>();
+        for (uint32_t i = 1; system == "push" && i <= stations; i++)
+        {
+            auto pusher = Create<Pusher>(devices.Get(i), devices.Get(0)->GetAddress(), i,
+                                         pushRate);
+            // After association (about 0.5 s), each camera at a phase of its own.
+            Simulator::Schedule(Seconds(1.0 + phase->GetValue(0, 1.0 / pushRate)),
+                                &Pusher::Tick, pusher);
             pushers.push_back(pusher);
+        }
+        if (system == "wiswarm")
+        {
+            Simulator::Schedule(Seconds(1.0), &Collector::Poll, collector);
         }
     }
     std::signal(SIGTERM, OnSignal);
@@ -597,6 +781,10 @@ main(int argc, char** argv)
     }
     Simulator::Run();
     PrintStats("end");
+    if (!taps)
+    {
+        PrintAges(Simulator::Now().GetSeconds());
+    }
     for (auto& g : glue)
     {
         g->Stop();
