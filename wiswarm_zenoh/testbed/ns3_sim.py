@@ -15,8 +15,10 @@ WARMUP_S = 1.0  # the stations associate, then the cameras start; the window ope
 
 @dataclass(frozen=True)
 class Ns3Run:
-    """One simulated run: N stations, push (at ``rate`` frames/s into a drop-tail MAC queue
-    of ``queue_packets``) or wiswarm (round-robin polls, cameras at 100 fps)."""
+    """One simulated run: N stations, push (at ``rate`` frames/s; ``blocking``: through
+    a blocking socket into a MAC queue of ``queue_packets``, else thrown at the queue,
+    which drops what does not fit, as through a tap) or wiswarm (round-robin polls,
+    cameras at 100 fps)."""
 
     n: int
     system: str
@@ -27,6 +29,7 @@ class Ns3Run:
     data_mode: str | None = None
     ampdu: bool = False
     queue_packets: int = 128
+    blocking: bool = True
     seed: int = 1
 
 
@@ -45,7 +48,7 @@ def run_ns3(run: Ns3Run) -> Ns3Result:
             f"--pushRate={run.rate:g}", f"--frameBytes={run.frame_bytes}",
             f"--warmup={WARMUP_S}", f"--duration={WARMUP_S + run.window_s:g}",
             f"--ampdu={int(run.ampdu)}", f"--queuePackets={run.queue_packets}",
-            f"--seed={run.seed}", "--statsPeriod=1e9"]
+            f"--blocking={int(run.blocking)}", f"--seed={run.seed}", "--statsPeriod=1e9"]
     if run.data_mode:
         argv.append(f"--dataMode={run.data_mode}")
     done = subprocess.run(argv, capture_output=True, text=True, check=True)

@@ -31,6 +31,7 @@
 
 #include <atomic>
 #include <cmath>
+#include <deque>
 #include <cerrno>
 #include <csignal>
 #include <cstring>
@@ -321,8 +322,7 @@ OnPhyState(std::string ctx, Time, Time duration, WifiPhyState state)
 //
 // A frame of --frameBytes leaves a station as MTU-sized MSDUs (as IP fragments do); the AP
 // takes it as delivered when all of them came (a lost one loses the frame, as for UDP).
-// push: each station offers a frame every 1/--pushRate s into its MAC queue (drop-tail
-// at --queuePackets). wiswarm: the AP polls the stations in turn (round robin: the
+// push: each station's camera makes a frame every 1/--pushRate s (see Pusher). wiswarm: the AP polls the stations in turn (round robin: the
 // Whittle index's order for equal links), a poll being one small frame; the polled
 // station answers with its camera's freshest frame (100 fps); the next poll leaves when
 // the answer is complete, or after a timeout.
@@ -392,29 +392,83 @@ SendFrame(Ptr<NetDevice> device, Address to, uint32_t station, uint32_t frame, d
     }
 }
 
+/// A station's camera pushing frames. ``blocking``: as a blocking UDP socket on Linux,
+/// frames wait in the application's FIFO and their fragments enter the MAC queue as room
+/// frees up (what our model does); otherwise each frame's fragments are thrown at the
+/// queue at once, and a full queue drops them (what a tap without backpressure gives).
 class Pusher : public SimpleRefCount<Pusher>
 {
   public:
-    Pusher(Ptr<NetDevice> device, Address ap, uint32_t station, double rate)
+    Pusher(Ptr<NetDevice> device, Address ap, uint32_t station, double rate, bool blocking)
         : m_device(device),
           m_ap(ap),
           m_station(station),
-          m_rate(rate)
+          m_rate(rate),
+          m_blocking(blocking)
     {
+        Ptr<WifiMac> mac = DynamicCast<WifiNetDevice>(device)->GetMac();
+        m_queue = mac->GetTxopQueue(mac->GetQosSupported() ? AC_BE : AC_BE_NQOS);
+        if (blocking)
+        {
+            mac->TraceConnectWithoutContext("AckedMpdu", MakeCallback(&Pusher::Freed, this));
+            mac->TraceConnectWithoutContext("DroppedMpdu",
+                                            MakeCallback(&Pusher::FreedByDrop, this));
+        }
     }
 
     void Tick()
     {
-        SendFrame(m_device, m_ap, m_station, m_frame++, Simulator::Now().GetSeconds());
+        double now = Simulator::Now().GetSeconds();
+        if (m_blocking)
+        {
+            m_fifo.push_back(now);
+            Pump();
+        }
+        else
+        {
+            SendFrame(m_device, m_ap, m_station, m_frame++, now);
+        }
         Simulator::Schedule(Seconds(1.0 / m_rate), &Pusher::Tick, this);
     }
 
   private:
+    void Freed(Ptr<const WifiMpdu>)
+    {
+        Simulator::ScheduleNow(&Pusher::Pump, this); // once the MPDU has left the queue
+    }
+
+    void FreedByDrop(WifiMacDropReason, Ptr<const WifiMpdu>)
+    {
+        Simulator::ScheduleNow(&Pusher::Pump, this);
+    }
+
+    void Pump()
+    {
+        while (!m_fifo.empty() && m_queue->GetNPackets() < m_queue->GetMaxSize().GetValue())
+        {
+            Tag tag{m_station, m_frame, m_fifo.front(), m_next,
+                    static_cast<uint16_t>(g_fragments)};
+            std::vector<uint8_t> bytes(kFragment, 0);
+            std::memcpy(bytes.data(), &tag, sizeof(tag));
+            m_device->Send(Create<Packet>(bytes.data(), bytes.size()), m_ap, 0x0800);
+            if (++m_next == g_fragments)
+            {
+                m_next = 0;
+                m_frame++;
+                m_fifo.pop_front();
+            }
+        }
+    }
+
     Ptr<NetDevice> m_device;
     Address m_ap;
     uint32_t m_station;
     double m_rate;
+    bool m_blocking;
+    Ptr<WifiMacQueue> m_queue;
+    std::deque<double> m_fifo; // generation times of the frames waiting
     uint32_t m_frame = 0;
+    uint16_t m_next = 0; // the next fragment of the frame at the FIFO's head
 };
 
 /// The AP's side of the pure simulation: reassembly, AoI, and (wiswarm) the polls.
@@ -570,6 +624,7 @@ main(int argc, char** argv)
     uint32_t frameBytes = 50176;
     double pushRate = 50;
     std::string system = "push";
+    bool blocking = true;
     uint32_t queuePackets = 500;
     uint32_t seed = 1;
     bool ampdu = true;
@@ -591,6 +646,8 @@ main(int argc, char** argv)
     cmd.AddValue("frameBytes", "pure simulation: bytes per pushed frame", frameBytes);
     cmd.AddValue("pushRate", "pure simulation: frames/s each station pushes", pushRate);
     cmd.AddValue("system", "pure simulation: push or wiswarm (round-robin polls)", system);
+    cmd.AddValue("blocking", "pure simulation, push: a blocking socket (1) or none (0)",
+                 blocking);
     cmd.AddValue("warmup", "pure simulation: seconds before the AoI window opens", g_warmup);
     cmd.AddValue("queuePackets", "WifiMacQueue size (packets)", queuePackets);
     cmd.AddValue("rtPriority", "SCHED_RR priority in real time (0: none)", rtPriority);
@@ -758,7 +815,7 @@ main(int argc, char** argv)
         for (uint32_t i = 1; system == "push" && i <= stations; i++)
         {
             auto pusher = Create<Pusher>(devices.Get(i), devices.Get(0)->GetAddress(), i,
-                                         pushRate);
+                                         pushRate, blocking);
             // After association (about 0.5 s), each camera at a phase of its own.
             Simulator::Schedule(Seconds(1.0 + phase->GetValue(0, 1.0 / pushRate)),
                                 &Pusher::Tick, pusher);
