@@ -32,8 +32,7 @@ from wiswarm_zenoh.options import (
     require_testbed,
     writable_dir,
 )
-from wiswarm_zenoh.testbed import ChannelSpec
-from wiswarm_zenoh.testbed.wifi import WifiSpec
+from wiswarm_zenoh.testbed import ChannelSpec, WifiSpec
 
 log = logging.getLogger(__name__)
 

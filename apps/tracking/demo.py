@@ -38,8 +38,15 @@ from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
-from wiswarm_zenoh.testbed import Channel, ChannelSpec, Placement, entered, run_in
-from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
+from wiswarm_zenoh.testbed import (
+    Channel,
+    ChannelSpec,
+    Placement,
+    WifiMedium,
+    WifiSpec,
+    entered,
+    run_in,
+)
 from wiswarm_zenoh.transport import (
     Children,
     LeaderNode,

@@ -138,12 +138,14 @@ def test_up_refuses_a_name_in_use(capsys: pytest.CaptureFixture[str]) -> None:
 @needs_root
 def test_set_and_down_without_an_id(capsys: pytest.CaptureFixture[str],
                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    """Other channels may exist on this machine (other runs): the CLI is shown only ours,
-    so that `down` without an id, which removes every channel, removes only ours."""
+    """Other channels and WiFi media may exist on this machine (other runs): the CLI is
+    shown only ours, so that `down` without an id, which removes every one, removes only
+    ours."""
     channel = Channel(name=f"all{os.getpid():x}").build(persistent=True)
     try:
         shown = [channel.run_id]
         monkeypatch.setattr(cli, "list_channels", lambda: list(shown))
+        monkeypatch.setattr(cli, "list_media", list)  # no WiFi media: others' are not ours
         assert _main(["testbed", "set", "--rate", "2mbit"]) == 0
         assert Channel.attach(channel.run_id).spec.rate_bps == 2_000_000
         shown.append("other")

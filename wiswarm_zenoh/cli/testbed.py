@@ -40,31 +40,18 @@ from wiswarm_zenoh.testbed.wifi import (
 from wiswarm_zenoh.units import format_rate
 
 
-def _how_to_run(channel: Channel) -> str:
+def _how_to_run(leader_ns: str, leader_addr: str, follower_ns: str, where: str,
+                *after: str) -> str:
     """Commands that start a router, a leader and a follower on their sides."""
-    endpoint = f"tcp/{channel.leader_addr}:{ROUTER_PORT}"
+    endpoint = f"tcp/{leader_addr}:{ROUTER_PORT}"
     cfg = f"--cfg '{NO_SHARED_MEMORY}'"
     return "\n".join((
-        "run nodes inside it (shared memory off, or frames would not cross the link):",
-        f"  ip netns exec {channel.leader_ns} wiswarm router -l {endpoint} {cfg}",
-        f"  ip netns exec {channel.leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
-        f"  ip netns exec {channel.follower_ns} wiswarm follower --swarm s1 --id uav1 "
+        f"run nodes inside it ({where}):",
+        f"  ip netns exec {leader_ns} wiswarm router -l {endpoint} {cfg}",
+        f"  ip netns exec {leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
+        f"  ip netns exec {follower_ns} wiswarm follower --swarm s1 --id uav1 "
         f"-m client -e {endpoint} {cfg}",
-        f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
-        f"remove it:       wiswarm testbed down {channel.run_id}",
-    ))
-
-
-def _wifi_how_to_run(medium: WifiMedium) -> str:
-    endpoint = f"tcp/{medium.leader_addr}:{ROUTER_PORT}"
-    cfg = f"--cfg '{NO_SHARED_MEMORY}'"
-    return "\n".join((
-        "run nodes inside it (one follower per station namespace; shared memory off):",
-        f"  ip netns exec {medium.leader_ns} wiswarm router -l {endpoint} {cfg}",
-        f"  ip netns exec {medium.leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
-        f"  ip netns exec {medium.station_namespaces[0]} wiswarm follower --swarm s1 "
-        f"--id uav1 -m client -e {endpoint} {cfg}",
-        f"remove it:       wiswarm testbed down {medium.run_id}",
+        *after,
     ))
 
 
@@ -75,7 +62,9 @@ def _up_wifi(args: argparse.Namespace, spec: WifiSpec) -> int:
     except (ValueError, Ns3Unavailable) as exc:
         raise UsageError(str(exc)) from None
     print(medium.describe())
-    print(_wifi_how_to_run(medium))
+    print(_how_to_run(medium.leader_ns, medium.leader_addr, medium.station_namespaces[0],
+                      "one follower per station namespace; shared memory off",
+                      f"remove it:       wiswarm testbed down {medium.run_id}"))
     print(f"run id: {medium.run_id}")
     return 0
 
@@ -92,7 +81,10 @@ def _up(args: argparse.Namespace) -> int:
     except ValueError as exc:  # the name is taken
         raise UsageError(str(exc)) from None
     print(channel.describe())
-    print(_how_to_run(channel))
+    print(_how_to_run(channel.leader_ns, channel.leader_addr, channel.follower_ns,
+                      "shared memory off, or frames would not cross the link",
+                      f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
+                      f"remove it:       wiswarm testbed down {channel.run_id}"))
     print(f"run id: {channel.run_id}")
     return 0
 

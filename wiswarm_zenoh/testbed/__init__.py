@@ -1,5 +1,6 @@
 """The emulated shared channel (Linux, root): network namespaces joined by a veth pair
-shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air.
+shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air;
+or the WiFi medium, ns-3's 802.11 with a station per follower.
 """
 
 from wiswarm_zenoh.testbed.channel import (
@@ -18,6 +19,7 @@ from wiswarm_zenoh.testbed.spec import (
     unavailable_reason,
 )
 from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
+from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 
 __all__ = [
     "Channel",
@@ -25,6 +27,8 @@ __all__ = [
     "LinkCounters",
     "Placement",
     "TestbedUnavailable",
+    "WifiMedium",
+    "WifiSpec",
     "best_of_grid",
     "check_available",
     "cleanup_leftovers",

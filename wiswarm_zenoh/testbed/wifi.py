@@ -34,7 +34,12 @@ from typing import IO, Any
 from wiswarm_zenoh.testbed.channel import STATE_DIR
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.ns3_build import scenario_binary
-from wiswarm_zenoh.testbed.ownership import locked, namespace_exists, process_start
+from wiswarm_zenoh.testbed.ownership import (
+    locked,
+    namespace_exists,
+    process_start,
+    remove_orphans,
+)
 from wiswarm_zenoh.testbed.spec import MTU, check_available
 from wiswarm_zenoh.testbed.tc import run
 
@@ -223,17 +228,9 @@ def _owned(record: dict[str, Any]) -> bool:
 
 
 def _cleanup_locked() -> list[str]:
-    removed = []
     recorded = {path.stem for path in RECORDS.glob("*.json")}
-    for run_id in sorted(set(list_media()) | recorded):
-        record = _load(run_id)
-        if record is None or not _owned(record):
-            _remove_locked(run_id, record)
-            owner = "unknown: no record" if record is None else f"pid {record['owner_pid']}"
-            log.warning("removed leftover WiFi medium %s (its process, %s, is gone)",
-                        run_id, owner)
-            removed.append(run_id)
-    return removed
+    return remove_orphans("WiFi medium", sorted(set(list_media()) | recorded), _load, _owned,
+                          lambda record: int(record["owner_pid"]), _remove_locked)
 
 
 def cleanup_leftovers() -> list[str]:
@@ -417,8 +414,9 @@ class WifiMedium:
                                f"{self.spec.hard_limit_ms:g} ms behind real time (largest "
                                f"lag {stats.max_lag_ms:.1f} ms): this machine cannot hold "
                                f"{self.spec.stations} stations at this load")
-        raise MediumFailed(f"WiFi medium {self.run_id}: the ns-3 scenario ended: "
-                           f"{self._stderr_tail()}")
+        why = ("it was stopped (SIGTERM: `wiswarm testbed down`?)" if stats.event == "end"
+               else self._stderr_tail())
+        raise MediumFailed(f"WiFi medium {self.run_id}: the ns-3 scenario ended: {why}")
 
     def close(self) -> None:
         """Stop the scenario, remove namespaces, taps and record; safe to repeat."""
