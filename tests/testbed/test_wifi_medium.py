@@ -4,8 +4,10 @@ behind, also when the medium's owner is killed."""
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import select
 import signal
 import threading
 from multiprocessing.synchronize import Event
@@ -17,6 +19,7 @@ from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.ownership import namespace_exists, process_start
 from wiswarm_zenoh.testbed.run import RunSpec, measure
 from wiswarm_zenoh.testbed.wifi import (
+    MediumFailed,
     WifiMedium,
     WifiSpec,
     cleanup_leftovers,
@@ -79,3 +82,19 @@ def test_a_killed_owners_medium_and_scenario_are_removed() -> None:
         owner.kill()
     assert run_id not in list_media()
     assert process_start(pid) != start
+
+
+def test_falling_behind_real_time_fails_loudly() -> None:
+    """A hard limit no simulation keeps (1 us): the scenario ends itself, and the next
+    check says the medium fell behind real time, by how much."""
+    with WifiMedium(WifiSpec(stations=1, hard_limit_ms=0.001),
+                    name=f"w28l{os.getpid():x}") as medium:
+        pid, _ = medium.scenario_process
+        with contextlib.suppress(ProcessLookupError):  # ended already
+            handle = os.pidfd_open(pid)
+            try:
+                assert select.select([handle], [], [], 30)[0], "the scenario kept running"
+            finally:
+                os.close(handle)
+        with pytest.raises(MediumFailed, match="behind real time"):
+            medium.check()

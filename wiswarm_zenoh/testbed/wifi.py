@@ -408,14 +408,16 @@ class WifiMedium:
         if self._scenario is None and pid > 0 \
                 and process_start(pid) == record.get("scenario_start"):
             return
-        stats = self.stats()
-        if stats.event == "lag-exceeded":
+        stats, stderr = self.stats(), self._stderr_tail()
+        jitter = re.search(r"Hard real-time limit exceeded \(jitter = (\d+)\)", stderr)
+        if stats.event == "lag-exceeded" or jitter:  # our watch, or ns-3's own HardLimit
+            lag = max(stats.max_lag_ms, int(jitter.group(1)) / 1e6 if jitter else 0.0)
             raise MediumFailed(f"WiFi medium {self.run_id}: the simulation fell more than "
-                               f"{self.spec.hard_limit_ms:g} ms behind real time (largest "
-                               f"lag {stats.max_lag_ms:.1f} ms): this machine cannot hold "
+                               f"{self.spec.hard_limit_ms:g} ms behind real time (lag "
+                               f"{lag:.3f} ms): this machine cannot hold "
                                f"{self.spec.stations} stations at this load")
         why = ("it was stopped (SIGTERM: `wiswarm testbed down`?)" if stats.event == "end"
-               else self._stderr_tail())
+               else stderr)
         raise MediumFailed(f"WiFi medium {self.run_id}: the ns-3 scenario ended: {why}")
 
     def close(self) -> None:
