@@ -188,7 +188,10 @@ def _stop_scenario(record: dict[str, Any]) -> None:
     pid, start = int(record.get("scenario_pid", 0)), record.get("scenario_start")
     if pid <= 0 or process_start(pid) != start:
         return
-    handle = os.pidfd_open(pid)  # readable once the process has ended
+    try:
+        handle = os.pidfd_open(pid)  # readable once the process has ended
+    except ProcessLookupError:
+        return  # it ended meanwhile
     try:
         os.kill(pid, signal.SIGTERM)
         if not select.select([handle], [], [], STOP_TIMEOUT)[0]:
