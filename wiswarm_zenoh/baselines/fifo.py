@@ -85,7 +85,8 @@ class FrameFifo:
 
 class FifoSender(ABC):
     """A FIFO of stamped frames in front of a transport: a subclass sends one frame
-    (``_send``) and lets go of the transport (``_release``)."""
+    (``_send``) and lets go of the transport (``_release``; ``sending``: a send still
+    blocks on it, see ``FrameFifo.close``)."""
 
     def __init__(self, name: str, capacity: int, clock: Callable[[], float]) -> None:
         self.fifo = FrameFifo(name, self._send, capacity, clock)
@@ -98,8 +99,7 @@ class FifoSender(ABC):
     def _send(self, payload: bytes, generated_at: float, seq: int) -> None: ...
 
     @abstractmethod
-    def _release(self) -> None: ...
+    def _release(self, sending: bool) -> None: ...
 
     def close(self) -> None:
-        self.fifo.close()
-        self._release()
+        self._release(sending=not self.fifo.close())
