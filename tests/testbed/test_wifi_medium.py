@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from wiswarm_zenoh.cli import main as cli
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.ownership import namespace_exists, process_start
 from wiswarm_zenoh.testbed.run import RunSpec, measure
@@ -98,3 +99,23 @@ def test_falling_behind_real_time_fails_loudly() -> None:
                 os.close(handle)
         with pytest.raises(MediumFailed, match="behind real time"):
             medium.check()
+
+
+def test_up_status_down_by_hand(capsys: pytest.CaptureFixture[str]) -> None:
+    """`testbed up --medium wifi` leaves a medium that outlives the command, `status`
+    shows its lag and air, `down RUN_ID` removes it and its scenario."""
+    run_id = f"w28c{os.getpid():x}"
+    assert cli.main(["testbed", "up", "--medium", "wifi", "--stations", "1",
+                     "--name", run_id]) == 0
+    try:
+        assert f"wsw28-{run_id}-s1" in capsys.readouterr().out
+        pid, start = WifiMedium.attach(run_id).scenario_process
+        assert process_start(pid) == start  # persistent: its scenario runs on
+        assert cli.main(["testbed", "status"]) == 0
+        status = capsys.readouterr().out
+        assert f"WiFi medium {run_id}, persistent" in status and "air: " in status
+    finally:
+        assert cli.main(["testbed", "down", run_id]) == 0
+    assert capsys.readouterr().out == f"removed WiFi medium {run_id}\n"
+    assert run_id not in list_media()
+    assert process_start(pid) != start
