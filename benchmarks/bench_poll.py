@@ -171,9 +171,11 @@ def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds:
 
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
-                 control_period: float) -> tuple[float, list[dict[str, Any]], float]:
-    """(b): polls/s of the LeaderNode, its per-follower stats at the end, and the share
-    of its polls sent on a pick made while the poll before was out (``fast_polls``)."""
+                 control_period: float, **node: Any
+                 ) -> tuple[float, list[dict[str, Any]], float]:
+    """(b): polls/s of the LeaderNode (made with ``node``'s further arguments), its
+    per-follower stats at the end, and the share of its polls sent on a pick made while
+    the poll before was out (``fast_polls``)."""
     joined: list[str] = []
     everyone = threading.Event()
 
@@ -183,17 +185,17 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
             everyone.set()
 
     with LeaderNode(session, SWARM, config, on_join=on_join,
-                    control_period=control_period) as node:
+                    control_period=control_period, **node) as leader:
         if not everyone.wait(READY_TIMEOUT):
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
-        while node.polls < WARM_UP_ROUNDS * n:
+        while leader.polls < WARM_UP_ROUNDS * n:
             time.sleep(0.001)
-        start, polls0, fast0 = time.perf_counter(), node.polls, node.fast_polls
+        start, polls0, fast0 = time.perf_counter(), leader.polls, leader.fast_polls
         time.sleep(seconds)
-        polls, fast = node.polls - polls0, node.fast_polls - fast0
+        polls, fast = leader.polls - polls0, leader.fast_polls - fast0
         rate = polls / (time.perf_counter() - start)
         time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
-        stats = [record.as_dict() for record in node.latest]
+        stats = [record.as_dict() for record in leader.latest]
     return rate, stats, fast / max(polls, 1)
 
 

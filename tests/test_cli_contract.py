@@ -56,11 +56,14 @@ ALLOWED_BY_FLAG: dict[str, dict[str, str]] = {
     "--seed": {"0": "seed 0 is the default"},
     "leader --alpha": {"0": "an EMA factor in [0, 1]"},
     "leader --control-period": {"0": "0 puts control information with every poll"},
+    "--ros-domain": {"0": "ROS's default domain"},
+    "--ros-namespace": {"/nonexistent/dir/file": "a ROS namespace of three tokens"},
+    "foxglove --port": {"0": "any free port"},
     "experiment testbed --warmup": {"0": "no warm-up: the window opens at once"},
 }
 # Values for required flags while another flag is tried, by kind.
 VALID = {"name": "uav1", "int": "3", "dir": "{tmp}/out", "name list": "f1,f2",
-         "rate": "20mbit"}
+         "rate": "20mbit", "file": "{tmp}/out.mcap"}
 # What would start something: reaching one of these means a bad value got through.
 STARTERS = (
     "wiswarm_zenoh.cli.nodes.run_router", "wiswarm_zenoh.cli.nodes.run_receiver",
@@ -71,6 +74,7 @@ STARTERS = (
     "wiswarm_zenoh.options.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",
     "wiswarm_zenoh.cli.security.init", "wiswarm_zenoh.cli.security.add_follower",
     "wiswarm_zenoh.cli.edge_cloud.run_edge_cloud", "wiswarm_zenoh.cli.dashboard.serve",
+    "wiswarm_zenoh.cli.recording.run_recording",
     "apps.tracking.demo.run",
 )
 

@@ -16,7 +16,7 @@ PACKAGE = ROOT / "wiswarm_zenoh"
 # (``options``: what a command line built on it needs, as ``wiswarm``'s own uses).
 PUBLIC = {"wiswarm_zenoh", "wiswarm_zenoh.core", "wiswarm_zenoh.transport",
           "wiswarm_zenoh.testbed", "wiswarm_zenoh.baselines", "wiswarm_zenoh.options",
-          "wiswarm_zenoh.dashboard"}
+          "wiswarm_zenoh.dashboard", "wiswarm_zenoh.ros2", "wiswarm_zenoh.recording"}
 
 
 def imports(path: Path) -> Iterator[tuple[str, list[str]]]:

@@ -16,6 +16,14 @@ def test_readme_opens_with_the_two_commands() -> None:
     assert any(line.startswith("make test") for line in head)
 
 
+def test_readme_shows_the_demos_comparison_on_its_first_screen() -> None:
+    """The issue's "done when": what `make demo` prints, WiSwarm against push."""
+    head = "\n".join(README.read_text().splitlines()[:30])
+    assert "wiswarm@100fps      push@50fps    push / wiswarm" in head
+    assert re.search(r"AoI mean \(ms\) +[0-9.]+ +[0-9.]+ +[0-9.]+x", head)
+    assert re.search(r"tracking error \(m\) +[0-9.]+ +[0-9.]+ +[0-9.]+x", head)
+
+
 def test_readme_core_example_runs_and_delivers() -> None:
     text = README.read_text()
     match = re.search(r"## The core in 20 lines\n\n```python\n(.*?)```", text, re.S)

@@ -1,6 +1,7 @@
 """The tracking demo: an embedded router, N UAV processes (spawn) and the leader here.
 
-Order of events: the router comes up; the UAVs build the seeded world and open their
+Order of events: over the shared link in user space its relay comes up first, in a
+process of its own; the router comes up; the UAVs build the seeded world and open their
 sessions, then report ready (started together by the transport's `Children`, which
 also stops them all on the way out); this process opens the leader's session, its
 vision thread and transport (polling or push); the world epoch is set a warm-up ahead and
@@ -23,6 +24,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from dataclasses import dataclass, field, replace
 from multiprocessing import connection
+from pathlib import Path
 from typing import Literal
 
 import zenoh
@@ -32,20 +34,26 @@ from apps.tracking.geometry import CameraModel
 from apps.tracking.leader_app import ControlSink, VisionLoop, VisionStats
 from apps.tracking.push import PushLeader
 from apps.tracking.reception import AoISummary, DeliveryRow, Reception
+from apps.tracking.ros2 import FrameAdapter
 from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh.core import POLICIES, LeaderConfig
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
+from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
+from wiswarm_zenoh.recording import SwarmRecording
+from wiswarm_zenoh.ros2 import Ros2Options
 from wiswarm_zenoh.testbed import (
     Channel,
     ChannelSpec,
     Placement,
+    UserChannel,
     WifiMedium,
     WifiSpec,
     entered,
     run_in,
+    run_link,
 )
 from wiswarm_zenoh.transport import (
     Children,
@@ -64,6 +72,8 @@ RESULT_TIMEOUT_S = 15.0
 CHECK_PERIOD = 0.25  # seconds between checks, while waiting for results, that UAVs live
 DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
 FRAME_SIZES = (224, 160)  # stationary runs / flights
+ChannelKind = Literal["user", "tbf", "wifi"]
+CHANNEL_KINDS: tuple[ChannelKind, ...] = ("user", "tbf", "wifi")
 
 
 @dataclass(frozen=True)
@@ -83,9 +93,13 @@ class DemoOptions:
     warmup_s: float = 2.0
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
-    # the UAVs behind the emulated channel, or each a station of the WiFi medium (root)
+    # the UAVs behind a shared channel of this shape, or each a station of the WiFi medium
     channel: ChannelSpec | WifiSpec | None = None
+    # tbf: namespaces (root); user: a relay on loopback; wifi: ns-3's medium (root)
+    channel_kind: ChannelKind = "tbf"
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
+    ros2: Ros2Options | None = None  # the leader is also a ROS 2 node
+    mcap: Path | None = None  # where the run is recorded for Foxglove (None: not recorded)
 
     def __post_init__(self) -> None:
         if isinstance(self.uavs, bool) or not 1 <= self.uavs <= 50:
@@ -109,10 +123,28 @@ class DemoOptions:
             raise ValueError(f"policy must be one of {sorted(POLICIES)}, got {self.policy!r}")
         if not (math.isfinite(self.warmup_s) and 0.5 <= self.warmup_s <= 60):
             raise ValueError(f"warm-up must be in [0.5, 60] s, got {self.warmup_s!r}")
-        if self.dashboard_port is not None and self.channel is not None:
-            raise ValueError("the dashboard cannot run with --channel: its page would listen "
-                             "inside the leader's network namespace (add --no-dashboard)")
+        if self.channel_kind not in CHANNEL_KINDS:
+            raise ValueError(f"channel kind must be one of {CHANNEL_KINDS}, got "
+                             f"{self.channel_kind!r}")
+        if (self.channel is not None
+                and isinstance(self.channel, WifiSpec) != (self.channel_kind == "wifi")):
+            raise ValueError("the wifi channel kind goes with a WifiSpec, user and tbf with "
+                             f"a ChannelSpec, got {self.channel_kind!r} with "
+                             f"{type(self.channel).__name__}")
+        if self.ros2 is not None and self.system != "wiswarm":
+            raise ValueError("--ros2 is for --system wiswarm: the push baseline has no leader")
+        if self.dashboard_port is not None and self.namespaces:
+            raise ValueError(f"the dashboard cannot run with --channel {self.channel_kind}: "
+                             "its page would "
+                             "listen inside the leader's network namespace (add "
+                             "--no-dashboard)")
         self.world_config()  # the world must fit the UAVs' cars
+
+    @property
+    def namespaces(self) -> bool:
+        """Whether the run builds network namespaces (root): the tbf channel's or the
+        WiFi medium's."""
+        return self.channel is not None and self.channel_kind in ("tbf", "wifi")
 
     @property
     def rate(self) -> float:
@@ -167,7 +199,8 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
     """The leader's transport: a LeaderNode polling, or the push baseline's subscriber."""
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
-        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered) as node:
+        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered,
+                        bridge=options.ros2) as node:
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,
@@ -189,13 +222,15 @@ class _Sides:
     leader: SessionSpec
     leader_ns: str | None = None  # None: all on this host's loopback
     uav_ns: tuple[str | None, ...] = (None,)  # UAV i's: its own, or all one side's
+    link: UserChannel | None = None  # the user-space link's relay, started first
 
     def uav_ns_of(self, index: int) -> str | None:
         return self.uav_ns[index % len(self.uav_ns)]
 
 
 def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
-    """Loopback, or the two sides of an emulated channel built for this run."""
+    """Loopback, the two ends of a user-space link, or the two sides of an emulated
+    channel or WiFi medium built for this run."""
     if options.channel is None:
         port = free_tcp_port()
         uav = SessionSpec.loopback(options.mode, connect_ports=[port])
@@ -208,6 +243,10 @@ def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
         place = Placement(medium.leader_ns, stations[0], medium.leader_addr)
         return _Sides(place.router(), place.follower(), place.leader(), medium.leader_ns,
                       stations)
+    if options.channel_kind == "user":
+        link = UserChannel.on_free_ports(options.channel)
+        log.info("%s", link.describe())
+        return _Sides(link.router(), link.follower(), link.leader(), link=link)
     channel = stack.enter_context(Channel(options.channel))
     log.info("%s", channel.describe())
     place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
@@ -230,6 +269,8 @@ def run(options: DemoOptions) -> DemoRun:
     with ExitStack() as stack:
         sides = _sides(options, stack)
         children = stack.enter_context(Children(ctx))
+        if sides.link is not None:
+            children.start("link", run_link, sides.link)
         _start(children, "router", sides.leader_ns, run_router, sides.router)
         links: dict[str, UavLink] = {}
         for index, uav in enumerate(options.uav_ids):
@@ -252,6 +293,8 @@ def run(options: DemoOptions) -> DemoRun:
         stack.callback(board.close)
         if options.dashboard_port is not None:
             stack.callback(_dashboard(session, options).close)
+        if options.mcap is not None or options.dashboard_port is not None:
+            stack.enter_context(_foxglove(session, options))
 
         epoch = time.time() + options.warmup_s
         end = epoch + options.duration_s
@@ -295,6 +338,23 @@ def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
         page = Dashboard(session, SWARM, 0)
     print(f"dashboard: {page.url} (live while the demo runs)", file=sys.stderr, flush=True)
     return page
+
+
+def _foxglove(session: zenoh.Session, options: DemoOptions) -> SwarmRecording:
+    """The run into ``options.mcap`` and, beside the dashboard, live to Foxglove (on a
+    free port if Foxglove's own is taken); the live address on stderr."""
+    live = options.dashboard_port is not None
+    try:
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=FOXGLOVE_PORT if live else None)
+    except RuntimeError as exc:
+        log.warning("port %d: %s; Foxglove's server takes a free one", FOXGLOVE_PORT, exc)
+        recording = SwarmRecording(session, SWARM, mcap=options.mcap, adapter=FrameAdapter(),
+                                   port=0)
+    if recording.url is not None:
+        print(f"foxglove: {recording.url} (open it in the Foxglove app while the demo runs)",
+              file=sys.stderr, flush=True)
+    return recording
 
 
 def _collect(links: dict[str, UavLink], children: Children) -> dict[str, UavResult]:

@@ -1,8 +1,8 @@
 """The leader's image-processing thread (paper, Section III-D).
 
 Frames that arrive for a UAV land in that UAV's mailbox, which keeps only the freshest
-(a LIFO of one per UAV, as the paper's compute node keeps). One vision thread goes over
-the mailboxes round robin and processes a frame whenever it finds one: it finds the
+(a LIFO of one per UAV, as the paper's compute node keeps: the middleware's
+``Freshest``). One vision thread takes them round robin and processes each: it finds the
 UAV's car, updates the car's tracker, hands the plan to the middleware as control
 information and the car-UAV relative speed as the urgency signal. Arrivals only swap a
 reference under a lock, so the transport's thread is never held up by vision.
@@ -25,7 +25,7 @@ from apps.tracking.frames import FrameError, decode_frame
 from apps.tracking.geometry import Arena, CameraModel
 from apps.tracking.tracker import CarTracker, Plan, TrackerConfig
 from apps.tracking.vision import MarkerDetector
-from wiswarm_zenoh.transport import BadInputLog
+from wiswarm_zenoh.transport import BadInputLog, Freshest
 
 log = logging.getLogger(__name__)
 
@@ -75,17 +75,14 @@ class VisionLoop:
                  clock: Callable[[], float] = time.time) -> None:
         if not assignment:
             raise ValueError("assignment must name at least one UAV")
-        self._order = sorted(assignment)
         self._cars = dict(assignment)
-        self._trackers = {uav: CarTracker(arena, tracker_config) for uav in self._order}
+        self._trackers = {uav: CarTracker(arena, tracker_config) for uav in self._cars}
         self._camera = camera
         self._detector = MarkerDetector()  # used by the vision thread only
         self._clock = clock
         self._stats = {uav: VisionStats(car) for uav, car in self._cars.items()}
-        self._slots: dict[str, Arrival | None] = dict.fromkeys(self._order)
-        self._cursor = 0
-        self._cond = threading.Condition()
-        self._stop = False
+        self._mailboxes: Freshest[str, Arrival] = Freshest()
+        self._lock = threading.Lock()  # the stats
         self._sink: ControlSink | None = None
         self._thread: threading.Thread | None = None
         self.busy_s = 0.0
@@ -99,49 +96,30 @@ class VisionLoop:
         self._thread.start()
 
     def stop(self) -> None:
-        with self._cond:
-            self._stop = True
-            self._cond.notify_all()
+        self._mailboxes.close()
         if self._thread is not None:
             self._thread.join()
 
     def submit(self, uav: str, arrival: Arrival) -> None:
         """Put a frame in its UAV's mailbox (replacing an unprocessed older one)."""
-        with self._cond:
+        with self._lock:
             stats = self._stats.get(uav)
             unknown = stats is None
             if stats is not None:
-                waiting = self._slots[uav]
+                waiting = self._mailboxes.put(uav, arrival)
                 self._stats[uav] = replace(
                     stats, arrivals=stats.arrivals + arrival.counted,
                     superseded=stats.superseded + (waiting is not None and waiting.counted),
                 )
-                self._slots[uav] = arrival
-                self._cond.notify()
         if unknown:
             self.bad_input.report(uav, "frame from a UAV with no car assigned")
 
     def stats(self) -> dict[str, VisionStats]:
-        with self._cond:
+        with self._lock:
             return dict(self._stats)
 
-    def _take(self) -> tuple[str, Arrival] | None:
-        """The next non-empty mailbox after the last one served, waiting for one."""
-        with self._cond:
-            while not self._stop:
-                n = len(self._order)
-                for step in range(n):
-                    uav = self._order[(self._cursor + step) % n]
-                    arrival = self._slots[uav]
-                    if arrival is not None:
-                        self._slots[uav] = None
-                        self._cursor = (self._cursor + step + 1) % n
-                        return uav, arrival
-                self._cond.wait()
-        return None
-
     def _run(self) -> None:
-        while (item := self._take()) is not None:
+        while (item := self._mailboxes.take()) is not None:
             started = time.perf_counter()
             self._process(*item)
             self.busy_s += time.perf_counter() - started
@@ -169,7 +147,7 @@ class VisionLoop:
                     detections=counted * (detection is not None), plans_sent=counted * sent)
 
     def _count(self, uav: str, plan: Plan | None = None, **increments: int) -> None:
-        with self._cond:
+        with self._lock:
             stats = self._stats[uav]
             changes = {name: getattr(stats, name) + k for name, k in increments.items()}
             self._stats[uav] = replace(stats, plan=plan or stats.plan, **changes)

@@ -1,9 +1,12 @@
 """The demo's pictures: 2-D trajectories of UAVs and cars, AoI and tracking-error
 histograms (PNG, matplotlib), and an animated GIF of the world seen from above with
-each UAV's field of view (drawn with OpenCV, written with Pillow)."""
+each UAV's field of view (drawn with OpenCV, written with Pillow); for a comparison of
+systems, their AoI and tracking error against time in one figure and their runs side by
+side in one GIF."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 import cv2
@@ -103,45 +106,83 @@ def _palette(uavs: int) -> Image.Image:
     return palette
 
 
-def write_gif(run: DemoRun, path: Path) -> None:
-    """The arena from above during the window, real time at GIF_FPS frames a second."""
-    options = run.options
+def write_gif(runs: Sequence[DemoRun], path: Path) -> None:
+    """The arena from above during the window, real time at GIF_FPS frames a second; one
+    panel per run, side by side (runs of one world: the same cars, seen at once)."""
+    options = runs[0].options
     world = World(options.world_config())
     renderer = Renderer(world)
     arena, r = world.arena, GIF_RESOLUTION_M
-    times = np.arange(0.0, run.measured_s, 1.0 / GIF_FPS)
+    times = np.arange(0.0, min(run.measured_s for run in runs), 1.0 / GIF_FPS)
     times = times[:: max(1, -(-len(times) // GIF_MAX_FRAMES))]
 
     def to_px(xy: NDArray[np.float64]) -> NDArray[np.int32]:
         u, v = xy[..., 0] / r - 0.5, (arena.height_m - xy[..., 1]) / r - 0.5
         return np.round(np.stack([u, v], axis=-1)).astype(np.int32)
 
-    tracks = {uav: _samples(run, uav) for uav in options.uav_ids}
+    tracks = [{uav: _samples(run, uav) for uav in options.uav_ids} for run in runs]
     palette = _palette(options.uavs)
     images = []
     for t in times:
-        gray = renderer.overview(float(t), r)
-        image = cv2.cvtColor(gray, cv2.COLOR_GRAY2RGB)
-        for i, uav in enumerate(options.uav_ids):
-            s, c = tracks[uav], COLUMNS
-            if not len(s):
-                continue
-            colour = tuple(int(255 * k) for k in _colour(i))
-            pose = Pose(*(float(np.interp(t, s[:, c["t"]], s[:, c[name]]))
-                          for name in ("uav_x", "uav_y", "uav_z", "uav_yaw")))
-            cv2.polylines(image, [to_px(_footprint(options.camera, pose))], True, colour, 2)
-            cv2.circle(image, tuple(int(p) for p in to_px(np.array([pose.x, pose.y]))), 3,
-                       colour, -1)
-            car = np.asarray(world.car_position(i, float(t)))
-            cv2.circle(image, tuple(int(p) for p in to_px(car)), 7, colour, 1)
-        cv2.putText(image, f"{options.system} t = {t:5.1f} s", (6, 16),
-                    cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
-        images.append(Image.fromarray(image).quantize(palette=palette,
-                                                      dither=Image.Dither.NONE))
+        ground = cv2.cvtColor(renderer.overview(float(t), r), cv2.COLOR_GRAY2RGB)
+        panels = []
+        for run, run_tracks in zip(runs, tracks, strict=True):
+            image = ground.copy()
+            for i, uav in enumerate(options.uav_ids):
+                s, c = run_tracks[uav], COLUMNS
+                if not len(s):
+                    continue
+                colour = tuple(int(255 * k) for k in _colour(i))
+                pose = Pose(*(float(np.interp(t, s[:, c["t"]], s[:, c[name]]))
+                              for name in ("uav_x", "uav_y", "uav_z", "uav_yaw")))
+                cv2.polylines(image, [to_px(_footprint(options.camera, pose))], True, colour, 2)
+                cv2.circle(image, tuple(int(p) for p in to_px(np.array([pose.x, pose.y]))), 3,
+                           colour, -1)
+                car = np.asarray(world.car_position(i, float(t)))
+                cv2.circle(image, tuple(int(p) for p in to_px(car)), 7, colour, 1)
+            cv2.putText(image, f"{run.options.system} t = {t:5.1f} s", (6, 16),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+            panels.append(image)
+        gap = np.full((ground.shape[0], 4, 3), 255, dtype=np.uint8)
+        joined = np.hstack([part for panel in panels for part in (gap, panel)][1:])
+        images.append(Image.fromarray(joined).quantize(palette=palette,
+                                                       dither=Image.Dither.NONE))
     if images:
         step_ms = round(1000.0 * (times[1] - times[0])) if len(times) > 1 else 200
         images[0].save(path, save_all=True, append_images=images[1:], duration=step_ms,
                        loop=0, optimize=False)
+
+
+def plot_comparison(runs: Sequence[DemoRun], path: Path, title: str) -> None:
+    """Both systems over the same window: the UAVs' mean AoI at the leader (log scale)
+    and their mean tracking error, against time."""
+    fig, (aoi_ax, error_ax) = plt.subplots(1, 2, figsize=(12, 4.2))
+    for k, run in enumerate(runs):
+        colour, label = _colour(k), f"{run.options.system} @ {run.options.rate:g} fps"
+        start, end = run.epoch, run.epoch + run.measured_s
+        series = [aoi_series(run.deliveries, uav, start, end, step=0.01)
+                  for uav in run.options.uav_ids]
+        if series:
+            ages = np.mean([age for _, age in series], axis=0)
+            aoi_ax.plot(series[0][0] - start, ages * 1e3, color=colour, lw=1.2, label=label)
+        tracks = [_samples(run, uav) for uav in run.options.uav_ids]
+        tracks = [s for s in tracks if len(s)]
+        if tracks:
+            grid = np.arange(0.0, run.measured_s, 0.05)
+            errors = np.mean([np.interp(grid, s[:, COLUMNS["t"]], s[:, COLUMNS["error_m"]])
+                              for s in tracks], axis=0)
+            error_ax.plot(grid, errors, color=colour, lw=1.2, label=label)
+    aoi_ax.set(yscale="log", xlabel="time in the window (s)", ylabel="mean AoI at the leader (ms)",
+               title="age of the freshest frame")
+    error_ax.set(xlabel="time in the window (s)", ylabel="mean tracking error (m)",
+                 title="UAV-car ground distance")
+    for ax in (aoi_ax, error_ax):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def write_plots(out: Path, run: DemoRun, gif: bool = True) -> list[Path]:
@@ -151,5 +192,17 @@ def write_plots(out: Path, run: DemoRun, gif: bool = True) -> list[Path]:
     plot_histograms(run, paths[1], paths[2])
     if gif:
         paths.append(out / "world.gif")
-        write_gif(run, paths[-1])
+        write_gif([run], paths[-1])
+    return paths
+
+
+def write_comparison(out: Path, runs: Sequence[DemoRun], title: str,
+                     gif: bool = True) -> list[Path]:
+    """comparison.png and, with ``gif``, world.gif with a panel per run."""
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "comparison.png"]
+    plot_comparison(runs, paths[0], title)
+    if gif:
+        paths.append(out / "world.gif")
+        write_gif(runs, paths[-1])
     return paths

@@ -3,7 +3,10 @@
 `summary.json` has, per UAV and averaged over the UAVs, `mean_aoi_s`, `p95_aoi_s`
 (time statistics of the AoI sawtooth at the leader over the window),
 `mean_tracking_error_m` and `in_view_share` (time averages of the UAV's own samples),
-and more. A value that could not be measured (a UAV that handed nothing back) is null.
+and more; and `systems`: per system run, its averages (`mean_aoi_s`, `p95_aoi_s`,
+`tracking_error_m`, `in_view`), camera rate, channel and UAVs. A comparison of systems
+(``compare``) keeps just that, for every system, and their ratios. A value that could
+not be measured (a UAV that handed nothing back) is null.
 """
 
 from __future__ import annotations
@@ -65,20 +68,33 @@ def average(per_uav: Iterable[dict[str, Number]]) -> dict[str, Number]:
     return out
 
 
-def _channel(options: DemoOptions) -> dict[str, object] | None:
-    """What the UAVs were behind: the tbf channel's shape, or the WiFi medium's."""
-    channel = options.channel
-    if channel is None:
+def channel_entry(options: DemoOptions) -> dict[str, object] | None:
+    """The channel a run crossed (None: loopback, nothing scarce): a shared link's shape,
+    or the WiFi medium's."""
+    spec = options.channel
+    if spec is None:
         return None
-    if isinstance(channel, ChannelSpec):
-        return {"rate_bps": channel.rate_bps, "down_rate_bps": channel.down_bps,
-                "queue_s": channel.queue_s, "burst_bytes": channel.burst_bytes}
-    return {"medium": "wifi", **asdict(channel)}
+    if isinstance(spec, ChannelSpec):
+        return {"kind": options.channel_kind, "rate_bps": spec.rate_bps,
+                "down_rate_bps": spec.down_bps, "queue_s": spec.queue_s,
+                "burst_bytes": spec.burst_bytes}
+    return {"kind": options.channel_kind, **asdict(spec)}
+
+
+def system_entry(rate_hz: float, channel: dict[str, object] | None, mean: dict[str, Number],
+                 per_uav: dict[str, dict[str, Number]]) -> dict[str, object]:
+    """One system's line of ``systems`` in summary.json: its averages over the UAVs, the
+    channel it ran over, its camera rate, and its UAVs."""
+    return {"mean_aoi_s": mean["mean_aoi_s"], "p95_aoi_s": mean["p95_aoi_s"],
+            "tracking_error_m": mean["mean_tracking_error_m"], "in_view": mean["in_view_share"],
+            "rate_hz": rate_hz, "channel": channel, "per_uav": per_uav}
 
 
 def summarise(run: DemoRun) -> dict[str, object]:
     options = run.options
     per_uav = {uav: uav_summary(run, uav) for uav in options.uav_ids}
+    mean = average(per_uav.values())
+    channel = channel_entry(options)
     span = max(run.measured_s, 1e-9)
     deliveries = sum(a.deliveries for a in run.aoi.values())
     processed = sum(v.processed for v in run.vision.values())
@@ -87,9 +103,10 @@ def summarise(run: DemoRun) -> dict[str, object]:
         "measured_s": run.measured_s, "seed": options.seed, "rate_hz": options.rate,
         "frame_px": options.frame_px, "vehicle": options.vehicle, "motion": options.motion,
         "policy": options.policy if options.system == "wiswarm" else None,
-        "channel": _channel(options),
+        "channel": channel,
         "per_uav": per_uav,
-        "average": average(per_uav.values()),
+        "average": mean,
+        "systems": {options.system: system_entry(options.rate, channel, mean, per_uav)},
         "leader": {
             "deliveries_per_s": deliveries / span, "processed_per_s": processed / span,
             "vision_busy_share": _clean(run.vision_busy_s / (span + options.warmup_s)),
@@ -113,12 +130,18 @@ def aoi_series(rows: Sequence[DeliveryRow], uav: str, start: float, end: float,
     return t, t - newest[index]
 
 
+def write_summary(out: Path, summary: dict[str, object]) -> Path:
+    """``out/summary.json`` (the directory is made if missing)."""
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "summary.json"
+    path.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    return path
+
+
 def write_outputs(out: Path, run: DemoRun, summary: dict[str, object]) -> list[Path]:
     """summary.json, per_uav.csv, tracking.csv (UAV samples), deliveries.csv."""
-    out.mkdir(parents=True, exist_ok=True)
-    paths = [out / name for name in ("summary.json", "per_uav.csv", "tracking.csv",
-                                     "deliveries.csv")]
-    paths[0].write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+    paths = [write_summary(out, summary)] + [
+        out / name for name in ("per_uav.csv", "tracking.csv", "deliveries.csv")]
     per_uav = summary["per_uav"]
     assert isinstance(per_uav, dict)
     _write_csv(paths[1], ("uav", *UAV_KEYS),
@@ -162,4 +185,52 @@ def summary_lines(summary: dict[str, object]) -> list[str]:
     assert isinstance(leader, dict)
     lines.append(f"  leader: {leader['deliveries_per_s']:.0f} deliveries/s, "
                  f"vision {leader['processed_per_s']:.0f} frames/s")
+    return lines
+
+
+COMPARED = (("mean_aoi_s", "AoI mean (ms)", 1e3, 1), ("p95_aoi_s", "AoI p95 (ms)", 1e3, 1),
+            ("tracking_error_m", "tracking error (m)", 1.0, 3),
+            ("in_view", "car in view (%)", 100.0, 1))
+
+
+def compare(summaries: dict[str, dict[str, object]]) -> dict[str, object]:
+    """The summary.json of runs of several systems in the same world: what they share,
+    ``systems`` (each run's entry) and, for each later system, its ratios to the first
+    (``push_over_wiswarm``: how many times staler and worse it tracks)."""
+    first = next(iter(summaries.values()))
+    out: dict[str, object] = {key: first[key] for key in (
+        "uavs", "duration_s", "seed", "frame_px", "vehicle", "motion", "channel")}
+    entries: dict[str, dict[str, object]] = {}
+    for system, summary in summaries.items():
+        systems = summary["systems"]
+        assert isinstance(systems, dict)
+        entries[system] = {**systems[system], "measured_s": summary["measured_s"]}
+    out["systems"] = entries
+    base_name, base = next(iter(entries.items()))
+    for name, entry in list(entries.items())[1:]:
+        out[f"{name}_over_{base_name}"] = {
+            key.removesuffix("_s").removesuffix("_m"): _ratio(entry[key], base[key])
+            for key in ("mean_aoi_s", "p95_aoi_s", "tracking_error_m")}
+    return out
+
+
+def _ratio(value: object, base: object) -> Number:
+    if not isinstance(value, float) or not isinstance(base, float) or base <= 0:
+        return None
+    return value / base
+
+
+def comparison_lines(comparison: dict[str, object]) -> list[str]:
+    """The side-by-side summary: a column per system, and the ratio to the first."""
+    entries = comparison["systems"]
+    assert isinstance(entries, dict)
+    names = list(entries)
+    labels = [f"{name}@{entries[name]['rate_hz']:g}fps" for name in names]
+    ratio_head = f"{names[-1]} / {names[0]}" if len(names) > 1 else ""
+    lines = [f"{'':20}" + "".join(f"{label:>16}" for label in labels) + f"{ratio_head:>18}"]
+    for key, label, scale, digits in COMPARED:
+        values = [entries[name][key] for name in names]
+        cells = "".join(f"{'-' if v is None else f'{v * scale:.{digits}f}':>16}" for v in values)
+        ratio = _ratio(values[-1], values[0]) if len(names) > 1 and key != "in_view" else None
+        lines.append(f"{label:20}{cells}" + (f"{ratio:>17.1f}x" if ratio is not None else ""))
     return lines

@@ -223,6 +223,50 @@ def test_close_drops_the_queue_and_does_not_wait_for_a_blocked_send(
     assert sent == [1]  # the three queued were dropped
 
 
+class _BorrowedPublisher:
+    """A Zenoh publisher as PyO3 holds it: ``put`` keeps the object borrowed while it
+    blocks (BLOCK congestion on a full link), and ``undeclare`` from another thread in
+    the meantime raises what zenoh-python raises, ``RuntimeError: Already borrowed``."""
+
+    congestion_control = zenoh.CongestionControl.BLOCK
+
+    def __init__(self) -> None:
+        self.putting, self.unblock, self.undeclared = (threading.Event(), threading.Event(),
+                                                       threading.Event())
+
+    def put(self, payload: bytes, attachment: bytes) -> None:
+        self.putting.set()
+        self.unblock.wait(WAIT)
+        self.putting.clear()
+
+    def undeclare(self) -> None:
+        if self.putting.is_set():
+            raise RuntimeError("Already borrowed")
+        self.undeclared.set()
+
+
+def test_closing_a_push_sender_whose_put_blocks_never_undeclares_under_it(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The testbed study's teardown crash: close gave up waiting for a blocked put and
+    undeclared the publisher from the closing thread. Now the sender's own thread
+    undeclares it, once its put has returned."""
+    monkeypatch.setattr(fifo_module, "CLOSE_WAIT", 0.05)
+    publisher = _BorrowedPublisher()
+
+    class Session:
+        def declare_publisher(self, key: str, **options: object) -> _BorrowedPublisher:
+            return publisher
+
+    sender = PushSender(Session(), "s", "uav0")  # type: ignore[arg-type]
+    assert sender.offer(FRAME)
+    assert publisher.putting.wait(WAIT)
+    sender.close()  # raised Already borrowed before
+    assert not publisher.undeclared.is_set()
+    publisher.unblock.set()  # the session closes: the put returns
+    assert publisher.undeclared.wait(WAIT)
+    assert sender.fifo.close()
+
+
 def test_sequence_spans_and_sender_restarts_give_p_hat() -> None:
     tally = FollowerTally(AoITracker(0.0))
     for seq in (1, 2, 4, 5):  # 3 lost on the way

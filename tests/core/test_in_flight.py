@@ -16,6 +16,7 @@ from wiswarm_zenoh.core import (
     TimedOut,
     drain,
 )
+from wiswarm_zenoh.core.leader import END_GRACE
 
 from .drive import on_reply
 
@@ -99,11 +100,13 @@ def test_any_interleaving_keeps_k_distinct_polls_at_most_and_delivers_what_is_an
             if now < request.deadline:
                 assert any(isinstance(e, Delivered) and e.follower == follower
                            for e in events)
-        elif action == "end" and out:  # its get is over, unanswered: the slot frees at once
+        elif action == "end" and out:  # its get is over, unanswered: the slot frees soon
             follower = sorted(out)[pick % len(out)]
             request = out.pop(follower)
             leader.receive_end(follower, request.poll_seq, now)
+            leader.handle_timer(now + END_GRACE)
             assert TimedOut(follower, request.poll_seq) in drain(leader)
+            out = {f: r for f, r in out.items() if now + END_GRACE < r.deadline}
         else:
             leader.handle_timer(now)
             drain(leader)

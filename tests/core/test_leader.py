@@ -263,6 +263,24 @@ def test_a_follower_that_left_ages_honestly_until_forgotten_or_back() -> None:
     assert leader.stats("a", 11.0).deliveries == 0
 
 
+def test_a_follower_that_left_keeps_the_mean_and_p95_of_its_time_present() -> None:
+    """Its age grows after it left, but a summary of how fresh it was (the leader's
+    table at exit, its stats) counts only the time it was there."""
+    leader, followers = _setup("a")
+    t = 0.0
+    for _ in range(100):
+        t += 0.01
+        followers["a"].offer(b"x", t - 0.002)
+        exchange(leader, followers, t)
+    present = leader.stats("a", t)
+    leader.remove_follower("a", t)
+    gone = leader.stats("a", t + 30.0)
+    assert gone.aoi_s == pytest.approx(30.0, abs=0.1)  # not fresh
+    assert gone.mean_aoi_s == pytest.approx(present.mean_aoi_s)
+    assert gone.p95_aoi_s == pytest.approx(present.p95_aoi_s)
+    assert gone.mean_aoi_s < 0.02
+
+
 def test_remove_another_follower_keeps_the_poll_in_flight() -> None:
     leader, followers = _setup("a", "b", "c")
     followers["a"].offer(b"x", 0.0005)

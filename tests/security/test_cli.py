@@ -144,3 +144,15 @@ def test_bad_certificates_are_one_line_and_exit_2(
     assert main([arg.format(d=directory) for arg in argv]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message.format(d=directory) in err, err
+
+
+@pytest.mark.parametrize("argv", [["follower", "--id", "f1", "-c", "{d}/f1.json5"],
+                                  ["leader", "-c", "{d}/leader.json5"]])
+def test_a_node_started_for_another_swarm_than_its_rules_cover_is_one_line(
+        swarm: tuple[Path, int], capsys: pytest.CaptureFixture[str], argv: list[str]) -> None:
+    """Its rules cover its own swarm's keys only: it would run silently dead."""
+    directory = swarm[0].resolve()
+    capsys.readouterr()
+    assert main([*(arg.format(d=directory) for arg in argv), "--swarm", "other"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pass --swarm s" in err, err

@@ -70,9 +70,13 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
         ("reply", "ingress", KEYS.update("f1")), ("query", "egress", KEYS.update("f1")),
         ("liveliness_token", "ingress", KEYS.member("f1")),
         ("declare_subscriber", "ingress", KEYS.control), ("put", "egress", KEYS.control)}
-    observer = _allowed(_rules_of(router, "o1"))
-    assert {m for m, _, _ in observer} == {"declare_subscriber", "put"}
-    assert {f for m, f, _ in observer if m == "put"} == {"egress"}
+    observer = _allowed(_rules_of(router, "o1"))  # read-only: what the dashboard and
+    assert {m for m, f, _ in observer if f == "ingress"} == {  # wiswarm record read
+        "declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"}
+    assert {k for m, f, k in observer if m == "declare_subscriber"} == {
+        KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh, f"{KEYS.prefix}/leader/deliveries",
+        f"{KEYS.prefix}/*/tracking", "wiswarm/experiments/*/points"}
+    assert {f for m, f, _ in observer if m in ("put", "liveliness_token")} == {"egress"}
     leader = _allowed(_rules_of(router, "leader"))
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {
         KEYS.control, KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh,
@@ -121,3 +125,26 @@ def test_add_follower_without_init_is_one_line_and_exit_2(
 def test_a_config_zenoh_refuses_is_never_rendered() -> None:
     with pytest.raises(zenoh.ZError):
         render({"access_control": {"enabled": True, "rules": [{"id": "no messages"}]}}, "x")
+
+
+def test_a_ros2_leader_gets_its_ros2_keys_and_no_more(tmp_path: Path) -> None:
+    """``--ros2``: the leader may put its topics, hear Paths and hold its node's tokens
+    (keys Zenoh accepts in a rule, ``@ros2_lv`` and ``%`` included); nobody else gets
+    any ROS 2 key, and ``add-follower`` keeps them."""
+    out = tmp_path / "pki"
+    assert main(["security", "init", "--out", str(out), "--followers", "f1", "--swarm",
+                 "s1", "--ros2", "--ros-domain", "3"]) == 0
+    add_follower(out, "f2")
+    router = _json5(out / "router.json5")
+    leader = _allowed(_rules_of(router, "leader"))
+    ros2 = {rule for rule in leader if rule[2][0].isdigit() or rule[2].startswith("@")}
+    assert ros2 == {
+        ("put", "ingress", "3/wiswarm/s1/*/*/*/*"), ("put", "ingress", "3/diagnostics/*/*"),
+        ("declare_subscriber", "ingress", "3/wiswarm/s1/*/waypoints/*/*"),
+        ("put", "egress", "3/wiswarm/s1/*/waypoints/*/*"),
+        ("liveliness_token", "ingress", "@ros2_lv/3/*/*/*/*/%/%wiswarm%s1/wiswarm_leader/**"),
+        ("declare_subscriber", "egress", "3/wiswarm/s1/*/*/*/*"),
+        ("declare_subscriber", "egress", "3/diagnostics/*/*")}
+    for follower in ("f1", "f2"):
+        keys = {k for _, _, k in _allowed(_rules_of(router, follower))}
+        assert all(k.startswith("wiswarm/") for k in keys)

@@ -13,7 +13,7 @@ import zenoh
 from wiswarm_zenoh.security import pki
 from wiswarm_zenoh.security.configs import node_config, render
 
-from .helpers import KEYS, Inbox, Sessions, answer, flushed, replies, until
+from .helpers import KEYS, SWARM, Inbox, Sessions, answer, flushed, replies, until
 
 
 def _open_raw(config: dict[str, Any]) -> zenoh.Session:
@@ -22,7 +22,7 @@ def _open_raw(config: dict[str, Any]) -> zenoh.Session:
 
 
 def _client(swarm: Path, name: str) -> dict[str, Any]:
-    return dict(json.loads(render(node_config(swarm, name, [_endpoint(swarm)]), name)
+    return dict(json.loads(render(node_config(swarm, name, [_endpoint(swarm)], SWARM), name)
                       .split("\n", 1)[1]))
 
 

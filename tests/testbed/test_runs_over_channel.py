@@ -15,9 +15,14 @@ from pathlib import Path
 
 import pytest
 
-from wiswarm_zenoh.testbed import Channel, list_channels
-from wiswarm_zenoh.testbed.run import RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed import Channel, ChannelSpec, list_channels
+from wiswarm_zenoh.testbed import run as run_module
+from wiswarm_zenoh.testbed.nodes import Placement
+from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.study import measure_fresh
+from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
+from wiswarm_zenoh.transport.runners import ReadySignal, StopSignal
 
 pytestmark = pytest.mark.testbed
 RATE_MBPS = 20.0
@@ -88,9 +93,54 @@ def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
         killer.join()
         timer.join()
     events = " ".join(outcome.events)
-    assert "followers process ended" in events
+    assert "followers process was killed by signal 9; started again" in events
     assert "20mbit/20mbit -> 5mbit/5mbit" in events
     assert all(f.deliveries >= 5 for f in outcome.result.followers)  # the run went on
+
+
+def test_a_udp_run_after_a_udp_run_at_50_fps_delivers(tmp_path: Path) -> None:
+    """UDP at 50 fps over a full link leaves the leader side's reassembly memory full of
+    incomplete datagrams for 30 s; a run in the same namespaces then delivered nothing.
+    The study gives every run fresh namespaces: the next run at a rate the link carries
+    gets every frame, and the reassembly counters show both."""
+    first = measure_fresh(ChannelSpec(), RunSpec("udp", 8, rate=50.0, duration=3.0,
+                                                 warmup=1.0), tmp_path, threading.Event())
+    assert first.result.channel["reasm_fails"] > 1000  # the contamination it leaves
+    after = measure_fresh(ChannelSpec(), RunSpec("udp", 8, rate=5.0, duration=3.0,
+                                                 warmup=1.0), tmp_path, threading.Event())
+    counters = after.result.channel
+    assert (counters["uplink_drops"], counters["reasm_fails"]) == (0.0, 0.0), counters
+    assert counters["reasm_oks"] >= 8 * 5 * 3 * 0.9
+    assert all(f.deliveries >= 5 * 3 * 0.9 for f in after.result.followers)
+    assert not after.events
+
+
+def _idle(stop: StopSignal, ready: ReadySignal) -> None:
+    ready.set()
+    stop.wait()
+
+
+def _fails_when_stopped(stop: StopSignal, ready: ReadySignal) -> None:
+    _idle(stop, ready)
+    raise RuntimeError("Already borrowed")  # as the push baselines' teardown did
+
+
+def _nodes_failing_at_stop(children: Children, place: Placement, spec: RunSpec,
+                           record: Path, groups: list[Group]) -> None:
+    for name in ("router", "leader"):
+        children.start(name, _idle)
+    for name, _, _ in groups:  # on the tbf channel: one, "followers"
+        children.start(name, _fails_when_stopped)
+
+
+def test_a_process_that_ends_with_an_error_when_stopped_is_reported(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(run_module, "_start_nodes", _nodes_failing_at_stop)
+    with Channel() as channel:
+        outcome = measure(channel, RunSpec("push-block", 2, duration=1.0, warmup=0.5),
+                          tmp_path)
+    assert [e.split(": ", 1)[1] for e in outcome.events] == [
+        "followers process ended with exit code 1"]
 
 
 def _wait_for_rows(path: Path, rows: int, timeout: float = 60.0) -> None:

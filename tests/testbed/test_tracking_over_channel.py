@@ -24,12 +24,15 @@ def _wiswarm(*argv: str) -> subprocess.CompletedProcess[str]:
 
 def test_the_demo_over_the_channel_tracks_and_records_the_channel(tmp_path: Path) -> None:
     before = set(list_channels())
-    done = _wiswarm("demo", "--channel", "20mbit", "--uavs", "2", "--duration", "4",
-                    "--warmup", "1", "--no-live", "--no-gif", "--out", str(tmp_path))
+    done = _wiswarm("demo", "--system", "wiswarm", "--channel", "tbf", "--channel-rate",
+                    "20mbit", "--uavs", "2", "--duration", "4", "--warmup", "1", "--no-live",
+                    "--no-gif", "--out", str(tmp_path))
     assert done.returncode == 0, done.stderr
     summary = json.loads((tmp_path / "summary.json").read_text())
-    assert summary["channel"] == {"rate_bps": 20_000_000, "down_rate_bps": 20_000_000,
-                                  "queue_s": 0.2, "burst_bytes": 32768}
+    assert summary["channel"] == {"kind": "tbf", "rate_bps": 20_000_000,
+                                  "down_rate_bps": 20_000_000, "queue_s": 0.2,
+                                  "burst_bytes": 32768}
+    assert summary["systems"]["wiswarm"]["channel"] == summary["channel"]
     # two UAVs share 21 ms frame times: about 45 ms, far from what push would show
     assert 0.02 < summary["average"]["mean_aoi_s"] < 0.2
     assert summary["leader"]["uavs_reporting"] == 2
@@ -48,6 +51,6 @@ def test_the_flight_study_writes_its_figures_and_table(tmp_path: Path) -> None:
 
 
 def test_a_bad_channel_rate_is_one_line() -> None:
-    done = _wiswarm("demo", "--channel", "fast")
+    done = _wiswarm("demo", "--channel", "tbf", "--channel-rate", "fast")
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "rate 'fast' is not a rate" in done.stderr

@@ -30,10 +30,15 @@ Send = Callable[[bytes, float, int], None]  # payload, generated_at, seq
 
 class FrameFifo:
     """``offer`` stamps a frame and queues it (False if the FIFO is full); a thread hands
-    queued frames, in order, to ``send(payload, generated_at, seq)``."""
+    queued frames, in order, to ``send(payload, generated_at, seq)``, and once closed
+    calls ``release()`` itself: the transport is only ever touched by that thread. A
+    Zenoh publisher undeclared from another thread while its put still blocks raises
+    ``RuntimeError: Already borrowed`` (and a socket closed under a send is no better),
+    so ``close`` never releases it behind the thread's back."""
 
     def __init__(self, name: str, send: Send, capacity: int = DEFAULT_CAPACITY,
-                 clock: Callable[[], float] = time.time) -> None:
+                 clock: Callable[[], float] = time.time,
+                 release: Callable[[], None] = lambda: None) -> None:
         if capacity < 1:
             raise ValueError(f"capacity must be >= 1, got {capacity}")
         self.offered = 0
@@ -41,6 +46,7 @@ class FrameFifo:
         self.sent = 0
         self._seq = 0
         self._send = send
+        self._release = release
         self._clock = clock
         self._lock = threading.Lock()  # stamps stay in order whoever offers
         self._fifo: queue.Queue[tuple[bytes, float, int] | None] = queue.Queue(capacity)
@@ -65,11 +71,16 @@ class FrameFifo:
                 log.exception("%s: a frame could not be sent", self._thread.name)
                 continue
             self.sent += 1
+        try:
+            self._release()
+        except Exception as exc:  # late, after its session closed: nothing left to free
+            log.debug("%s: releasing the transport: %s", self._thread.name, exc)
 
     def close(self) -> bool:
         """Stop: frames still queued are dropped (a send blocked on a congested or dead
-        path must not hold the process); the sender thread gets CLOSE_WAIT to end.
-        Returns whether it did (if not, it ends once its send returns; call again)."""
+        path must not hold the process); the sender thread gets CLOSE_WAIT to end and
+        release the transport. Returns whether it did (if not, it does both once its send
+        returns, e.g. when the session under it closes; call again to wait)."""
         with self._lock:
             with contextlib.suppress(queue.Empty):
                 while True:
@@ -85,11 +96,10 @@ class FrameFifo:
 
 class FifoSender(ABC):
     """A FIFO of stamped frames in front of a transport: a subclass sends one frame
-    (``_send``) and lets go of the transport (``_release``; ``sending``: a send still
-    blocks on it, see ``FrameFifo.close``)."""
+    (``_send``) and lets go of the transport (``_release``), both on the FIFO's thread."""
 
     def __init__(self, name: str, capacity: int, clock: Callable[[], float]) -> None:
-        self.fifo = FrameFifo(name, self._send, capacity, clock)
+        self.fifo = FrameFifo(name, self._send, capacity, clock, self._release)
 
     def offer(self, payload: bytes) -> bool:
         """Queue a frame stamped now; False if the FIFO is full (the frame is dropped)."""
@@ -99,7 +109,7 @@ class FifoSender(ABC):
     def _send(self, payload: bytes, generated_at: float, seq: int) -> None: ...
 
     @abstractmethod
-    def _release(self, sending: bool) -> None: ...
+    def _release(self) -> None: ...
 
     def close(self) -> None:
-        self._release(sending=not self.fifo.close())
+        self.fifo.close()

@@ -68,12 +68,8 @@ class PushSender(FifoSender):
     def _send(self, payload: bytes, generated_at: float, seq: int) -> None:
         self._publisher.put(payload, attachment=STAMP.pack(generated_at, seq))
 
-    def _release(self, sending: bool) -> None:
-        # A put still blocked (a saturated air holds it for seconds) borrows the
-        # publisher: undeclaring under it fails ("Already borrowed"). The session's
-        # close then ends both.
-        if not sending:
-            undeclare(self._publisher)
+    def _release(self) -> None:
+        undeclare(self._publisher)
 
 
 class UdpSender(FifoSender):
@@ -101,7 +97,7 @@ class UdpSender(FifoSender):
         except OSError as exc:  # ENOBUFS, no route: the frame is lost, as on the air
             log.debug("%s: datagram %d lost: %s", self._name.decode(), seq, exc)
 
-    def _release(self, sending: bool) -> None:
+    def _release(self) -> None:
         self._socket.close()
 
 
@@ -172,7 +168,7 @@ class TcpSender(FifoSender):
                     self._socket.shutdown(socket.SHUT_RDWR)
         super().close()
 
-    def _release(self, sending: bool) -> None:
+    def _release(self) -> None:
         with self._lock:
             if self._socket is not None:
                 self._socket.close()

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
+import socket
 import threading
 from typing import Any
 
@@ -35,9 +36,22 @@ def _address(text: str) -> str:
     return text
 
 
+ADDRESS = ArgType("address", _address)
+
+
+def _port_free(host: str, port: int) -> None:
+    """OSError if ``port`` cannot be listened on: found at once, not after the session's
+    scouting (seconds) as when the page's server finds it."""
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        probe.bind((host, port))
+
+
 def serve(spec: SessionSpec, swarm: str, port: int, host: str) -> Dashboard:
     """The dashboard, or the reason it cannot listen as one line."""
     try:
+        _port_free(host, port)
         return Dashboard.open(spec, swarm, port, host)
     except OSError as exc:
         raise UsageError(f"cannot serve on {host} port {port}: "
@@ -70,7 +84,7 @@ def register(subparsers: Any) -> None:
                         help=f"the swarm to show, a key chunk (default {DEFAULT_SWARM})")
     parser.add_argument("--port", type=integer(1, 65535), default=DEFAULT_PORT,
                         help=f"the web page's TCP port (default {DEFAULT_PORT})")
-    parser.add_argument("--host", type=ArgType("address", _address), default=DEFAULT_HOST,
+    parser.add_argument("--host", type=ADDRESS, default=DEFAULT_HOST,
                         help=f"the address to serve on (default {DEFAULT_HOST}: this machine "
                         "only; 0.0.0.0 or :: for every interface)")
     parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",

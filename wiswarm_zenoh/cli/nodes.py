@@ -33,16 +33,18 @@ from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.options import (
     IN_FLIGHT,
     UsageError,
+    add_ros2_arguments,
     add_zenoh_arguments,
     finite_float,
     host_port,
     node_name,
     positive_float,
     positive_int,
+    ros2_options,
     writable_dir,
     writable_file,
 )
-from wiswarm_zenoh.security.checks import check_identity
+from wiswarm_zenoh.security.checks import check_identity, check_swarm
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
@@ -68,7 +70,8 @@ BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
 LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wiswarm",),
                "alpha": ("wiswarm",), "control_period": ("wiswarm",), "name": ("wiswarm",),
                "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
-               "timeout_floor": ("wiswarm",),
+               "timeout_floor": ("wiswarm",), "ros2": ("wiswarm",), "ros_domain": ("wiswarm",),
+               "ros_namespace": ("wiswarm",), "ros_updates": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp")}
@@ -97,6 +100,8 @@ def _spec(args: argparse.Namespace, default_mode: str) -> SessionSpec:
     spec = SessionSpec.from_args(args, default_mode,
                                  () if default_mode == "router" else (LOCAL_ROUTER,))
     spec.config()  # every flag checked before anything starts
+    if getattr(args, "swarm", None) is not None:
+        check_swarm(args.config, args.swarm)
     return spec
 
 
@@ -177,7 +182,8 @@ def _leader(args: argparse.Namespace) -> int:
     if args.upstream == args.swarm:
         raise UsageError(f"--upstream must be another swarm than --swarm ({args.swarm!r})")
     options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record,
-                            name=args.name, upstream=args.upstream, site=args.site)
+                            name=args.name, upstream=args.upstream, site=args.site,
+                            bridge=ros2_options(args))
     spec = _spec(args, "peer")
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
@@ -301,6 +307,7 @@ def register(subparsers: Any) -> None:
                         help="with --upstream: this site's name there (default: --swarm)")
     leader.add_argument("--record", metavar="CSV", type=writable_file(),
                         help="write every delivery to this file (its directory must exist)")
+    add_ros2_arguments(leader)
     _add_common(leader, ("peer", "client"))
     leader.set_defaults(func=_leader)
 

@@ -11,10 +11,12 @@ from wiswarm_zenoh.options import (
     LISTEN_ENDPOINT,
     OneLineParser,
     UsageError,
+    add_ros2_arguments,
     host_name,
     integer,
     listed,
     node_name,
+    ros2_options,
     writable_dir,
 )
 from wiswarm_zenoh.security import configs
@@ -38,7 +40,9 @@ def _next_steps(directory: Path, roster: Roster, followers: tuple[str, ...]) -> 
 
 def _init(args: argparse.Namespace) -> int:
     try:
-        roster = Roster(args.swarm, args.leader, args.followers, args.observers)
+        ros2 = ros2_options(args)
+        roster = Roster(args.swarm, args.leader, args.followers, args.observers,
+                        None if ros2 is None else (ros2.domain, ros2.namespace))
         plan = Plan(roster, args.hosts, args.days,
                     tuple(args.listen) or (f"tls/0.0.0.0:{args.port}",),
                     tuple(configs.endpoints(args.hosts, args.port)))
@@ -104,6 +108,8 @@ def register(subparsers: Any) -> None:
                        help="where the router listens (repeatable; default tls/0.0.0.0:PORT)")
     start.add_argument("--days", type=integer(1, MAX_DAYS), default=365,
                        help=f"certificate lifetime in days, at most {MAX_DAYS} (default 365)")
+    add_ros2_arguments(start, updates=False, what="let the leader run with --ros2: its "
+                       "ROS 2 topics, Paths in and node tokens are allowed, nothing more")
     start.set_defaults(func=_init)
     add = commands.add_parser("add-follower", help="a certificate and config for one more "
                               "follower; rewrites the router's rules")

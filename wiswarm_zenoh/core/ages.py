@@ -15,6 +15,12 @@ import numpy as np
 from wiswarm_zenoh.core.policies import FloatArray
 
 
+def fresh_ages_in_slots(taus: Sequence[float], now: float, slot: float) -> list[float]:
+    """``ages_in_slots`` where every source is taken as always fresh (the common case:
+    one comprehension, no branch per follower)."""
+    return [(now - tau) / slot if now > tau else 0.0 for tau in taus]
+
+
 def ages_in_slots(taus: Sequence[float], dues: Sequence[float], intervals: Sequence[float],
                   now: float, slot: float) -> list[float]:
     """Each reducible age at ``now`` (0 for a time-stamp ahead of it), in slots; plain

@@ -32,6 +32,7 @@ from wiswarm_zenoh.core.wire import (
 __all__ = ["FollowerStats", "Leader", "PollRequest", "drain"]
 
 SLOT_EMA = 0.9  # smoothing of the mean poll duration, the "slot" of slotted policies
+END_GRACE = 0.002  # seconds a poll whose request is over still waits for its reply
 
 
 class Leader:
@@ -128,18 +129,21 @@ class Leader:
         back = self._departed.pop(follower, None)
         if back is not None:
             back.restart()
+            back.left_at = None
         peer = back or Peer.new(self.config, now, self.table.poll_times)
         if link is not None:
             self.site_links.attach(follower, peer, link)
         self.table.add(follower, peer)
 
-    def remove_follower(self, follower: str) -> None:
-        """A follower left (its liveliness token went): it is polled no more, its poll
-        and replies are dropped. Its record stays, ageing (``stats``, ``departed``), as
-        nothing fresh comes from it, until ``forget_follower`` or its return."""
+    def remove_follower(self, follower: str, now: float | None = None) -> None:
+        """A follower left (its liveliness token went) at ``now``: it is polled no more,
+        its poll and replies are dropped. Its record stays, ageing (``stats``,
+        ``departed``), as nothing fresh comes from it, until ``forget_follower`` or its
+        return; its mean and p95 AoI stay those of its time present."""
         peer = self.table.peers.get(follower)
         if peer is None:
             return
+        peer.left_at = now
         self._flights.pop(follower, None)
         self._waiting = deque(life for life in self._waiting
                               if life.request.follower != follower)
@@ -221,22 +225,20 @@ class Leader:
             return
         self._advance(settle=True)  # what came before them is reported before them
         for life in sorted(expired, key=lambda life: life.request.deadline):
-            self._unanswered(life, now, late_possible=True)
+            self._unanswered(life, now)
 
     def receive_end(self, follower: str, poll_seq: int, now: float) -> None:
         """No more replies can come to poll ``poll_seq`` of ``follower``: the shell's
         request is over (Zenoh's get: no queryable matched, or every replier sent its
-        last). If no valid reply was taken, the poll is unanswered now, not at its
-        deadline, and the channel is free for the next; a reply refused meanwhile kept
-        it open only while the genuine answer could still come."""
+        last). If no valid reply was taken, the poll is unanswered within ``END_GRACE``,
+        not at its deadline, and the channel is free for the next; a reply refused
+        meanwhile kept it open only while the genuine answer could still come. (The
+        grace: a reply and the get's end may come over two paths, a peer's own link
+        and the router's, and the end first.)"""
         life = self._flights.get(follower)
         if life is None or life.request.poll_seq != poll_seq:
-            peer = self.table.peers.get(follower)
-            if peer is not None:
-                peer.late(poll_seq)  # timed out before: no late reply will teach anything
-            return
-        self._advance(settle=True)
-        self._unanswered(life, now, late_possible=False)
+            return  # answered, or timed out before (a late reply may still be on its way)
+        life.request.deadline = min(life.request.deadline, now + END_GRACE)
 
     # --- output ---
 
@@ -313,13 +315,12 @@ class Leader:
         peer.errors += 1
         self._events.append(Rejected(follower, reason))
 
-    def _unanswered(self, life: PollLife, now: float, late_possible: bool) -> None:
-        """The poll of ``life`` ends with no valid answer; ``late_possible``: a reply may
-        still come after it (and teach how slow the link is)."""
+    def _unanswered(self, life: PollLife, now: float) -> None:
+        """The poll of ``life`` ends with no valid answer (a reply may still come after
+        it, and teach how slow the link is)."""
         request, peer = life.request, life.peer
         del self._flights[request.follower]
-        if late_possible:
-            peer.timed_out.append((request.poll_seq, request.sent_at))
+        peer.timed_out.append((request.poll_seq, request.sent_at))
         was_silent = peer.silent
         self._complete(request, peer, answered=False, now=now)
         if self.tuner is not None:

@@ -74,6 +74,7 @@ class Peer:
     timed_out: deque[tuple[int, float]] = field(
         default_factory=lambda: deque(maxlen=LATE_KEPT))
     silent_since: float = 0.0  # when it last went silent
+    left_at: float | None = None  # when its token went (None: present, or not told)
     want: Want = "next"
     polls: int = 0
     timeouts: int = 0
@@ -134,9 +135,12 @@ class Peer:
         self.want = "fresh"
 
     def stats(self, follower: str, now: float, present: bool = True) -> FollowerStats:
+        """Its figures at ``now``: its age grows after it left, its mean, p95 and peak
+        are those of its time present."""
+        until = now if present or self.left_at is None else min(now, self.left_at)
         return FollowerStats(
-            follower=follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(now),
-            p95_aoi_s=self.aoi.percentile(0.95, now), peak_aoi_s=self.aoi.peak(now),
+            follower=follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(until),
+            p95_aoi_s=self.aoi.percentile(0.95, until), peak_aoi_s=self.aoi.peak(until),
             p_hat=self.reliability.value, weight=self.weight.value, polls=self.polls,
             deliveries=self.aoi.deliveries, timeouts=self.timeouts, errors=self.errors,
             stale=self.stale, clock_offset_s=self.clock.offset, present=present,
@@ -169,6 +173,7 @@ class PeerTable:
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
         self.silent = 0
+        self.unfresh = 0  # followers whose due is not -inf (paced or silent)
         self._index: dict[str, int] = {}
         self.w = array("d")
         self.p = array("d")
@@ -200,7 +205,7 @@ class PeerTable:
         self.ids.append(follower)
         self.peers[follower] = peer
         for column, placeholder in ((self.w, 0.0), (self.p, 1.0), (self.tau, 0.0),
-                                    (self.due, 0.0), (self.interval, 0.0),
+                                    (self.due, -math.inf), (self.interval, 0.0),
                                     (self.probe_at, 0.0)):
             column.append(placeholder)
         self.sync(follower)
@@ -208,6 +213,7 @@ class PeerTable:
     def remove(self, follower: str) -> None:
         i = self._index[follower]
         self.silent -= self.peers[follower].silent
+        self.unfresh -= self.due[i] != -math.inf
         del self.ids[i], self.peers[follower]
         self._index = {fid: j for j, fid in enumerate(self.ids)}
         del self.w[i], self.p[i], self.tau[i], self.due[i], self.interval[i], self.probe_at[i]
@@ -227,7 +233,9 @@ class PeerTable:
         # not paced: aged from its last "nothing new" answer too (polling it sooner
         # cannot lower its age); paced: its pace says when a poll can
         self.tau[i] = peer.policy_tau if paced else max(peer.policy_tau, peer.idle_since)
-        self.due[i] = math.inf if p <= 0.0 else pace.due if paced else -math.inf
+        due = math.inf if p <= 0.0 else pace.due if paced else -math.inf
+        self.unfresh += (due != -math.inf) - (self.due[i] != -math.inf)
+        self.due[i] = due
         self.interval[i] = pace.interval if paced else 0.0
         self.probe_at[i] = peer.probe_at if p <= 0.0 else math.inf
 

@@ -48,7 +48,8 @@ class SwarmPollTimes:
 class PollTiming:
     """Durations of one follower's answered polls, and the timeout they give."""
 
-    __slots__ = ("_base", "_recent", "ceiling", "failed_probes", "floor", "swarm", "unanswered")
+    __slots__ = ("_base", "_recent", "_sum", "ceiling", "failed_probes", "floor", "swarm",
+                 "unanswered")
 
     def __init__(self, ceiling: float, floor: float, swarm: SwarmPollTimes | None = None) -> None:
         self.ceiling = ceiling
@@ -57,6 +58,7 @@ class PollTiming:
         self.failed_probes = 0
         self.unanswered = 0  # polls in a row that timed out
         self._recent: deque[float] = deque(maxlen=SAMPLES)
+        self._sum = 0.0  # of ``_recent``, kept as durations come and go
         self._base = ceiling  # from its own answered polls, kept current
 
     @property
@@ -73,7 +75,11 @@ class PollTiming:
             min(self.ceiling, base * 2.0 ** self.failed_probes)
 
     def answered(self, duration: float) -> None:
-        self._recent.append(duration)
+        recent = self._recent
+        if len(recent) == SAMPLES:
+            self._sum -= recent[0]
+        recent.append(duration)
+        self._sum += duration
         self.swarm.answered(duration)
         self.failed_probes = self.unanswered = 0
         self._base = min(self.ceiling, max(self.floor, MARGIN * max(self._recent)))
@@ -87,13 +93,14 @@ class PollTiming:
     def reset(self) -> None:
         """The follower restarted: what was measured may not hold."""
         self._recent.clear()
+        self._sum = 0.0
         self.failed_probes = self.unanswered = 0
         self._base = self.ceiling
 
     @property
     def success(self) -> float | None:
         """The mean duration of its answered polls (None before the first)."""
-        return sum(self._recent) / len(self._recent) if self._recent else None
+        return self._sum / len(self._recent) if self._recent else None
 
     def price(self, p: float) -> float:
         """What one of its polls is worth per unit of time, relative to an answered

@@ -7,7 +7,7 @@ from collections.abc import Collection, Sequence
 
 import numpy as np
 
-from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
+from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots, fresh_ages_in_slots
 from wiswarm_zenoh.core.peers import IntArray, PeerTable
 from wiswarm_zenoh.core.policies import IndexPolicy, Policy
 from wiswarm_zenoh.core.poll_records import Pick
@@ -52,6 +52,10 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
         tau: Sequence[float] = table.tau
         due: Sequence[float] = table.due
         interval: Sequence[float] = table.interval
+        if not table.unfresh:
+            if live is not None:
+                w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
+            return policy.choose_in_lists(w, p, fresh_ages_in_slots(tau, now, slot))
         if live is not None:
             w, p, tau, due, interval = ([column[i] for i in live]
                                         for column in (w, p, tau, due, interval))
@@ -72,8 +76,9 @@ def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, pol
     if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
         return None
     if table.plain_loops:
-        values = policy.indices(table.w, table.p,
-                                ages_in_slots(table.tau, table.due, table.interval, at, slot))
+        ages = fresh_ages_in_slots(table.tau, at, slot) if not table.unfresh else \
+            ages_in_slots(table.tau, table.due, table.interval, at, slot)
+        values = policy.indices(table.w, table.p, ages)
         values[polled] = -math.inf
         best = max(values)
         return Pick(poll_seq, at, values.index(best), best, policy.index)  # first of equals

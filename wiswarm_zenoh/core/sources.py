@@ -26,6 +26,7 @@ doubling with each empty answer in a row, at most ``MAX_BACKOFF``.
 from __future__ import annotations
 
 import math
+from collections import deque
 
 GAPS = 8  # updates the interval is taken over
 PACED_FOR = 64  # answers with an update after its last empty one: then fresh again
@@ -37,10 +38,12 @@ MAX_BACKOFF = 1.0  # seconds
 class SourcePace:
     """One follower's source as its updates show it (sans-I/O: times come in)."""
 
-    __slots__ = ("_gaps", "_last", "_since_empty", "due", "empties", "interval")
+    __slots__ = ("_gap_sum", "_gaps", "_last", "_seq_sum", "_since_empty", "due", "empties",
+                 "interval")
 
     def __init__(self) -> None:
-        self._gaps: list[tuple[float, int]] = []  # (generation gap, sequence gap)
+        self._gaps: deque[tuple[float, int]] = deque()  # (generation gap, sequence gap)
+        self._gap_sum, self._seq_sum = 0.0, 0  # their sums, kept as they come and go
         self._last: tuple[int, float] | None = None  # (seq, generated at, follower clock)
         self._since_empty = PACED_FOR  # answers with an update since the last empty one
         self.empties = 0  # empty answers in a row
@@ -57,12 +60,18 @@ class SourcePace:
         taken; ``tau`` is its generation time on the leader's clock."""
         last = self._last
         if last is not None and update_seq > last[0] and generated_at > last[1]:
-            self._gaps.append((generated_at - last[1], update_seq - last[0]))
+            gap, seqs = generated_at - last[1], update_seq - last[0]
+            self._gaps.append((gap, seqs))
+            self._gap_sum += gap
+            self._seq_sum += seqs
             if len(self._gaps) > GAPS:
-                del self._gaps[0]
-            self.interval = sum(g for g, _ in self._gaps) / sum(n for _, n in self._gaps)
+                gone = self._gaps.popleft()
+                self._gap_sum -= gone[0]
+                self._seq_sum -= gone[1]
+            self.interval = self._gap_sum / self._seq_sum
         elif last is not None and update_seq < last[0]:  # the source restarted
             self._gaps.clear()
+            self._gap_sum, self._seq_sum = 0.0, 0
             self.interval = 0.0
         self._last = (update_seq, generated_at)
         self._since_empty += 1

@@ -9,13 +9,11 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from contextlib import ExitStack
 from typing import Any
 
 import zenoh
 
 from wiswarm_zenoh.dashboard.records import (
-    loads,
     parse_deliveries,
     parse_leader,
     parse_points,
@@ -23,6 +21,7 @@ from wiswarm_zenoh.dashboard.records import (
     parse_tracking,
 )
 from wiswarm_zenoh.dashboard.state import SwarmState
+from wiswarm_zenoh.dashboard.watch import Watch, json_payload
 from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys
 
 log = logging.getLogger(__name__)
@@ -42,32 +41,15 @@ class Feed:
 
     def __init__(self, session: zenoh.Session, state: SwarmState) -> None:
         self.keys = SwarmKeys(state.swarm)
-        self._session = session  # held: a session nobody references is closed
         self._state = state
-        self._entities = ExitStack()
         handlers: dict[str, Callable[[str, Any], None]] = {
             self.keys.leader_deliveries: self._on_deliveries,
             self.keys.all_stats: self._on_stats,
             f"{self.keys.prefix}/*/{TRACKING_LEAF}": self._on_tracking,
             points_key("*"): self._on_points,
         }
-        try:
-            for key_expr, handler in handlers.items():
-                self._entities.enter_context(session.declare_subscriber(
-                    key_expr, self._guarded(handler)))
-        except BaseException:
-            self._entities.close()
-            raise
-
-    def _guarded(self, handler: Callable[[str, Any], None]) -> Callable[[zenoh.Sample], None]:
-        """The sample's JSON to ``handler``; a ValueError it raises is bad input."""
-        def on_sample(sample: zenoh.Sample) -> None:
-            key = str(sample.key_expr)
-            try:
-                handler(key, loads(sample.payload.to_bytes()))
-            except ValueError as exc:
-                self._state.bad_input.report(key, str(exc))
-        return on_sample
+        self._watch = Watch(session, {key: json_payload(handler)
+                                      for key, handler in handlers.items()}, state.bad_input)
 
     def _on_deliveries(self, key: str, data: Any) -> None:
         deliveries, bad = parse_deliveries(data)
@@ -98,4 +80,4 @@ class Feed:
         self._state.set_run(parse_points(data, key.split("/")[2]))
 
     def close(self) -> None:
-        self._entities.close()
+        self._watch.close()

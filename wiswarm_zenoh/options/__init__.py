@@ -29,6 +29,7 @@ from wiswarm_zenoh.options.arguments import (
     writable_file,
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
+from wiswarm_zenoh.options.ros2 import UPDATE_ADAPTER, add_ros2_arguments, ros2_options
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
@@ -53,6 +54,7 @@ __all__ = [
     "RUN_ID",
     "SEED",
     "TIME",
+    "UPDATE_ADAPTER",
     "ArgType",
     "OneLineParser",
     "ProgressBar",
@@ -61,6 +63,7 @@ __all__ = [
     "add_medium_arguments",
     "add_rate_grid",
     "add_rates",
+    "add_ros2_arguments",
     "add_zenoh_arguments",
     "channel_spec",
     "finite_float",
@@ -76,6 +79,7 @@ __all__ = [
     "positive_float",
     "positive_int",
     "require_testbed",
+    "ros2_options",
     "show_written",
     "wifi_spec",
     "writable_dir",

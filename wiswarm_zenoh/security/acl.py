@@ -12,7 +12,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from wiswarm_zenoh.transport.keys import SwarmKeys, check_follower, check_name
+from wiswarm_zenoh.ros2 import default_namespace
+from wiswarm_zenoh.ros2.bridge import NODE_NAME
+from wiswarm_zenoh.ros2.graph import ADMIN_SPACE, check_domain, check_namespace, mangle
+from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_follower, check_name
 
 ROUTER = "router"
 INGRESS, EGRESS = "ingress", "egress"
@@ -26,9 +29,14 @@ class Roster:
     leader: str
     followers: tuple[str, ...]
     observers: tuple[str, ...] = ()
+    ros2: tuple[int, str | None] | None = None  # the leader's ROS 2 domain and namespace
 
     def __post_init__(self) -> None:
         SwarmKeys(self.swarm)
+        if self.ros2 is not None:
+            check_domain(self.ros2[0])
+            if self.ros2[1] is not None:
+                check_namespace(self.ros2[1])
         check_name(self.leader, "leader name")
         for follower in self.followers:
             check_follower(follower)
@@ -49,6 +57,23 @@ class Roster:
 def _rule(rule_id: str, messages: list[str], flow: str, key_exprs: list[str]) -> dict[str, Any]:
     return {"id": rule_id, "permission": "allow", "flows": [flow], "messages": messages,
             "key_exprs": key_exprs}
+
+
+def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[dict[str, Any]]:
+    """What ``wiswarm leader --ros2`` sends and hears as a ROS 2 node (rmw_zenoh's keys):
+    its topics' data (``<ns>/<follower>/<leaf>`` and ``/diagnostics``, any type), Paths
+    on ``<ns>/<follower>/waypoints``, and its own node's liveliness tokens."""
+    ns = namespace or default_namespace(swarm)
+    data = [f"{domain}{ns}/*/*/*/*", f"{domain}/diagnostics/*/*"]
+    waypoints = [f"{domain}{ns}/*/waypoints/*/*"]
+    tokens = [f"{ADMIN_SPACE}/{domain}/*/*/*/*/%/{mangle(ns)}/{NODE_NAME}/**"]
+    return [
+        _rule("leader-ros2-publishes", ["put"], INGRESS, data),
+        _rule("leader-ros2-subscribes", ["declare_subscriber"], INGRESS, waypoints),
+        _rule("leader-ros2-hears-paths", ["put"], EGRESS, waypoints),
+        _rule("leader-ros2-tokens", ["liveliness_token"], INGRESS, tokens),
+        _rule("leader-ros2-sees-listeners", ["declare_subscriber"], EGRESS, data),
+    ]
 
 
 def access_control(roster: Roster) -> dict[str, Any]:
@@ -79,12 +104,23 @@ def access_control(roster: Roster) -> dict[str, Any]:
         _rule("leader-sees-listeners", ["declare_subscriber", "declare_queryable"], EGRESS,
               [*published, updates]),
     ]
+    if roster.ros2 is not None:
+        leader_rules += _ros2_rules(roster.swarm, *roster.ros2)
     follower_rules = [
         _rule("followers-subscribe-control", ["declare_subscriber"], INGRESS, [keys.control]),
         _rule("followers-get-control", ["put"], EGRESS, [keys.control]),
     ]
-    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, watched),
-                      _rule("observers-get-data", ["put"], EGRESS, watched)]
+    # Read-only: what the dashboard and ``wiswarm record`` show (stats, fresh updates,
+    # deliveries, the tracking records, experiments' points, who leads and who is a
+    # member), nothing sent.
+    observed = [*watched, deliveries, f"{p}/*/tracking", f"{ROOT}/experiments/*/points"]
+    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, observed),
+                      _rule("observers-get-data", ["put"], EGRESS, observed),
+                      _rule("observers-watch-tokens", ["declare_liveliness_subscriber",
+                                                       "liveliness_query"], INGRESS,
+                            [keys.members, leaders]),
+                      _rule("observers-see-tokens", ["liveliness_token"], EGRESS,
+                            [keys.members, leaders])]
     groups = [("leader", [roster.leader], leader_rules)]
     if roster.followers:
         groups.append(("followers", list(roster.followers), follower_rules))

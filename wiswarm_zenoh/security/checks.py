@@ -109,3 +109,21 @@ def check_identity(config_file: str | None, name: str) -> None:
         raise UsageError(f"certificate {path} (in {config_file}) is {common_name(cert)!r}'s, "
                          f"not {name!r}'s: use {name}'s config, or "
                          f"`wiswarm security add-follower` to make one")
+
+
+def check_swarm(config_file: str | None, swarm: str) -> None:
+    """A node started for ``swarm`` with a config that ``wiswarm security`` wrote for
+    another swarm would run silently dead (the router's rules cover that swarm's keys
+    only): said in one line instead."""
+    if config_file is None or not Path(config_file).is_file():
+        return
+    try:
+        metadata = json.loads(zenoh.Config.from_file(config_file).get_json("metadata"))
+    except (zenoh.ZError, ValueError):
+        return  # the session's own config checks report it, with Zenoh's words
+    ours = metadata.get("wiswarm") if isinstance(metadata, dict) else None
+    written_for = ours.get("swarm") if isinstance(ours, dict) else None
+    if isinstance(written_for, str) and written_for != swarm:
+        raise UsageError(f"{config_file} was written for swarm {written_for!r}, whose rules "
+                         f"cover its keys only: pass --swarm {written_for} (or make this "
+                         f"swarm's configs with wiswarm security init --swarm {swarm})")

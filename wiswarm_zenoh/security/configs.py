@@ -50,9 +50,12 @@ def router_config(directory: Path, roster: Roster, listen: Sequence[str]) -> dic
             "access_control": access_control(roster)}
 
 
-def node_config(directory: Path, name: str, connect: Sequence[str]) -> dict[str, Any]:
-    """A leader, follower or observer: a client of the router, with its own certificate."""
+def node_config(directory: Path, name: str, connect: Sequence[str],
+                swarm: str) -> dict[str, Any]:
+    """A leader, follower or observer: a client of the router, with its own certificate.
+    Its metadata names the swarm its rules are for (``checks.check_swarm``)."""
     return {"mode": "client", "connect": {"endpoints": list(connect)},
+            "metadata": {"wiswarm": {"swarm": swarm, "node": name}},
             **_common(directory, name, listens=False)}
 
 

@@ -44,8 +44,10 @@ class Plan:
     def from_json(cls, text: str) -> Plan:
         data = json.loads(text)
         roster = data["roster"]
+        ros2 = roster.get("ros2")
         return cls(roster=Roster(roster["swarm"], roster["leader"],
-                                 tuple(roster["followers"]), tuple(roster["observers"])),
+                                 tuple(roster["followers"]), tuple(roster["observers"]),
+                                 None if ros2 is None else (int(ros2[0]), ros2[1])),
                    hosts=tuple(data["hosts"]), days=int(data["days"]),
                    listen=tuple(data["listen"]), connect=tuple(data["connect"]))
 
@@ -57,7 +59,7 @@ def _rendered(directory: Path, plan: Plan, nodes: tuple[str, ...]) -> dict[str, 
         f"{plan.roster.swarm!r}: the router (`wiswarm router -c {directory / ROUTER_CONFIG}`)")}
     for node in nodes:
         texts[f"{node}.json5"] = configs.render(
-            configs.node_config(directory, node, plan.connect),
+            configs.node_config(directory, node, plan.connect, plan.roster.swarm),
             f"swarm {plan.roster.swarm!r}: node {node!r}, a client of the router")
     return texts
 

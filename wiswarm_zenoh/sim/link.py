@@ -47,6 +47,7 @@ from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.phy import IP_HEADER, TCP_HEADER, udp_fragments
 from wiswarm_zenoh.sim.scenario import Workload, result_of, start_system
 from wiswarm_zenoh.sim.udp import UdpPush
+from wiswarm_zenoh.token_bucket import TokenBucket
 from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
 
 ETHERNET_HEADER = 14
@@ -127,19 +128,17 @@ class ZenohAirtime(LinkAirtime):
 class Shaper:
     """One direction's ``tbf``: a token bucket in front of a byte-limited FIFO."""
 
-    __slots__ = ("_area", "_engine", "_queue", "_sent_at_once", "_since", "_stamp", "_tokens",
-                 "backlog", "burst", "bytes_per_s", "drops", "limit", "packets", "sent_bytes")
+    __slots__ = ("_area", "_bucket", "_engine", "_queue", "_sent_at_once", "_since", "backlog",
+                 "bytes_per_s", "drops", "limit", "packets", "sent_bytes")
 
     def __init__(self, engine: Engine, rate_bps: int, limit: int, burst: int,
                  sent_at_once: list[Mpdu]) -> None:
         self._engine = engine
         self.bytes_per_s = rate_bps / 8
         self.limit = limit
-        self.burst = float(burst)
         self._sent_at_once = sent_at_once  # their handlers run after ``send`` returns
         self._queue: deque[tuple[Station, Mpdu]] = deque()
-        self._tokens = self.burst  # tbf starts with a full bucket
-        self._stamp = 0.0
+        self._bucket = TokenBucket(self.bytes_per_s, burst)  # tbf starts with a full bucket
         self.backlog = 0.0  # bytes queued (tbf's backlog; a leaving packet is not)
         self._area = 0.0  # integral of the backlog over time
         self._since = 0.0
@@ -155,11 +154,6 @@ class Shaper:
     def mean_backlog(self, now: float) -> float:
         return (self._area + self.backlog * (now - self._since)) / now if now > 0 else 0.0
 
-    def _refill(self, now: float) -> float:
-        self._tokens = min(self.burst, self._tokens + (now - self._stamp) * self.bytes_per_s)
-        self._stamp = now
-        return self._tokens
-
     def _add_backlog(self, now: float, delta: float) -> None:
         self._area += self.backlog * (now - self._since)
         self._since = now
@@ -169,8 +163,8 @@ class Shaper:
         """Send at once (an empty FIFO and the tokens there), enqueue, or tail-drop (False)."""
         now = self._engine.now
         size = mpdu.busy
-        if not self._queue and self._refill(now) >= size:
-            self._tokens -= size
+        if not self._queue and self._bucket.wait_s(size, now) == 0.0:
+            self._bucket.take(size, now)
             self.sent_bytes += size
             self.packets += 1
             self._sent_at_once.append(mpdu)
@@ -186,8 +180,7 @@ class Shaper:
         return True
 
     def _wait_for_tokens(self, now: float) -> None:
-        missing = self._queue[0][1].busy - self._refill(now)
-        self._engine.at(now + max(missing, 0.0) / self.bytes_per_s, self._leave)
+        self._engine.at(now + self._bucket.wait_s(self._queue[0][1].busy, now), self._leave)
 
     def _leave(self) -> None:
         """The head has its tokens: it goes; the next head starts waiting for its own."""
@@ -195,7 +188,7 @@ class Shaper:
         station, mpdu = self._queue.popleft()
         station.queue.popleft()
         size = mpdu.busy
-        self._tokens = max(self._refill(now) - size, 0.0)
+        self._bucket.take(size, now)
         self._add_backlog(now, -size)
         self.sent_bytes += size
         self.packets += 1

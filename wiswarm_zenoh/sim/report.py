@@ -7,9 +7,16 @@ import csv
 import math
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.sweep import BASELINES, METRICS, Point, SweepConfig
+
+if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn, not with the module
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+MODEL = " (model)"  # the legend's suffix of a model's curve
 
 # The paper's reported gains of WiSwarm (Section IV-A), where it states them.
 PAPER_GAINS: dict[tuple[int, str, str], str] = {
@@ -27,16 +34,21 @@ PAPER_GAINS: dict[tuple[int, str, str], str] = {
 }
 
 
-def write_runs_csv(path: Path, results: Sequence[WifiResult]) -> None:
+def write_runs_csv(path: Path, results: Sequence[WifiResult],
+                   events: Sequence[Sequence[str]] | None = None) -> None:
+    """A row per run; with ``events`` (one list per result: what happened during a real
+    run, such as a process that ended), an ``events`` column of them joined by ``; ``."""
     counters = list(dict.fromkeys(key for r in results for key in r.channel))
+    notes = [] if events is None else ["events"]
     with path.open("w", newline="") as fh:
         out = csv.writer(fh)
-        out.writerow(["system", "n", "rate", "seed", "duration", *METRICS, *counters])
-        for r in results:
+        out.writerow(["system", "n", "rate", "seed", "duration", *METRICS, *counters, *notes])
+        for i, r in enumerate(results):
             out.writerow([
                 r.system, r.n, "" if r.rate is None else r.rate, r.seed, r.duration,
                 *(f"{r.mean(m):.6g}" for m in METRICS),
                 *(f"{r.channel[c]:.6g}" if c in r.channel else "" for c in counters),
+                *([] if events is None else ["; ".join(events[i])]),
             ])
 
 
@@ -60,6 +72,20 @@ def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str
     """Two panels like the paper's: (a) fixed-rate baselines, (b) rate-optimised ones.
     ``model`` points (same labels) are drawn dashed beside the measured ones, in the
     same colour: the simulator's curve for the channel that was measured."""
+    import matplotlib.pyplot as plt
+
+    fig = figure_against_n(points, metric, ylabel, fixed_rate, log, baselines, model)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def figure_against_n(points: Sequence[Point], metric: str, ylabel: str, fixed_rate: float,
+                     log: bool, baselines: Sequence[str] = BASELINES,
+                     model: Sequence[Point] = ()) -> Figure:
+    """``plot_against_n``'s figure. Model curves that coincide (two baselines the model
+    takes for the same system at the same rate, push-block and tcp) are one line with
+    both labels: drawn twice, the second would hide the first under a mixed colour that
+    no legend entry names."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -72,16 +98,22 @@ def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str
         ("(b) optimised rate", [f"{b}-opt" for b in baselines]),
     )
     for ax, (title, labels) in zip(axes, panels, strict=True):
+        model_lines: dict[tuple[tuple[int, float], ...], Line2D] = {}
         for label in [*labels, "wiswarm"]:
             series = _series(points, label)
             drawn = ax.errorbar([p.n for p in series], [p.mean[metric] for p in series],
                                 yerr=[p.std[metric] for p in series], marker="o", capsize=3,
                                 label=label)
             modelled = _series(model, label)
-            if modelled:
-                ax.plot([p.n for p in modelled], [p.mean[metric] for p in modelled],
-                        linestyle="--", marker="x", color=drawn.lines[0].get_color(),
-                        alpha=0.7, label=f"{label} (model)")
+            curve = tuple((p.n, p.mean[metric]) for p in modelled)
+            if curve in model_lines:
+                line = model_lines[curve]
+                line.set_label(f"{str(line.get_label()).removesuffix(MODEL)} = {label}{MODEL}")
+            elif modelled:
+                model_lines[curve], = ax.plot(
+                    [p.n for p in modelled], [p.mean[metric] for p in modelled],
+                    linestyle="--", marker="x", color=drawn.lines[0].get_color(), alpha=0.7,
+                    label=f"{label}{MODEL}")
         ax.set_title(title)
         ax.set_xticks(sorted({p.n for p in points}))
         ax.set_xlabel("number of UAVs N")
@@ -91,8 +123,7 @@ def plot_against_n(path: Path, points: Sequence[Point], metric: str, ylabel: str
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7 if model else None)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
+    return fig
 
 
 def plot_against_rate(path: Path, points: Sequence[Point], n: int) -> None:

@@ -1,6 +1,8 @@
 """The emulated shared channel (Linux, root): network namespaces joined by a veth pair
 shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air;
-or the WiFi medium, ns-3's 802.11 with a station per follower.
+or the WiFi medium, ns-3's 802.11 with a station per follower; and the tbf channel's
+shape without root (``UserChannel``: a relay on loopback with one token bucket and FIFO
+per direction).
 """
 
 from wiswarm_zenoh.testbed.channel import (
@@ -19,6 +21,7 @@ from wiswarm_zenoh.testbed.spec import (
     unavailable_reason,
 )
 from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
+from wiswarm_zenoh.testbed.user_channel import UserChannel, run_link
 from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 
 __all__ = [
@@ -27,6 +30,7 @@ __all__ = [
     "LinkCounters",
     "Placement",
     "TestbedUnavailable",
+    "UserChannel",
     "WifiMedium",
     "WifiSpec",
     "best_of_grid",
@@ -37,6 +41,7 @@ __all__ = [
     "list_channels",
     "remove_channel",
     "run_in",
+    "run_link",
     "share_fps",
     "unavailable_reason",
 ]

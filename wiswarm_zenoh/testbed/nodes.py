@@ -18,6 +18,25 @@ ROUTER_PORT = 7447
 SOCKET_PORT = 7450  # the UDP and TCP baselines' receiver
 
 
+def router_spec(*listen: str) -> SessionSpec:
+    """The leader side's router, listening on ``listen``."""
+    return SessionSpec(mode="router", listen=listen, cfg=(NO_SHARED_MEMORY,),
+                       multicast_scouting=False)
+
+
+def leader_spec(router: str) -> SessionSpec:
+    """A peer of the router at ``router``, beside it on the leader side."""
+    return SessionSpec(mode="peer", connect=(router,), listen=("tcp/127.0.0.1:0",),
+                       cfg=(NO_SHARED_MEMORY,), multicast_scouting=False)
+
+
+def follower_spec(router: str) -> SessionSpec:
+    """A client of the router reached at ``router``, across the channel: every byte to
+    the leader side crosses the shaped link (a client talks to its router only)."""
+    return SessionSpec(mode="client", connect=(router,), cfg=(NO_SHARED_MEMORY,),
+                       multicast_scouting=False)
+
+
 @dataclass(frozen=True)
 class Placement:
     """The two sides of one channel: namespaces and the leader side's address."""
@@ -37,18 +56,10 @@ class Placement:
 
     def router(self) -> SessionSpec:
         """Listens on the veth (followers) and on loopback (the leader beside it)."""
-        return SessionSpec(mode="router", listen=(self.router_endpoint,
-                                                  f"tcp/127.0.0.1:{ROUTER_PORT}"),
-                           cfg=(NO_SHARED_MEMORY,), multicast_scouting=False)
+        return router_spec(self.router_endpoint, f"tcp/127.0.0.1:{ROUTER_PORT}")
 
     def leader(self) -> SessionSpec:
-        """A peer of the router on the leader side's loopback."""
-        return SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{ROUTER_PORT}",),
-                           listen=("tcp/127.0.0.1:0",), cfg=(NO_SHARED_MEMORY,),
-                           multicast_scouting=False)
+        return leader_spec(f"tcp/127.0.0.1:{ROUTER_PORT}")
 
     def follower(self) -> SessionSpec:
-        """A client of the router across the channel: every byte to the leader side
-        crosses the shaped link (a client talks to its router only)."""
-        return SessionSpec(mode="client", connect=(self.router_endpoint,),
-                           cfg=(NO_SHARED_MEMORY,), multicast_scouting=False)
+        return follower_spec(self.router_endpoint)

@@ -1,6 +1,8 @@
 """A TCP relay holding every byte for a fixed delay: the one-way delay of a wide-area
 link between Zenoh routers (edge site <-> cloud), which ``tc`` cannot add here (no
-``netem``). The link's rate stays ``tbf``'s job; the relay sets none of its own.
+``netem``). Given a ``SharedLink`` (``shaper``), it is also the shared bottleneck
+without root: every connection's bytes wait in one token bucket and FIFO per direction
+before their delay; without one, the link's rate stays ``tbf``'s job.
 
 Design: per connection, a pipe each way with a reader and a writer thread. The reader
 stamps each chunk as it reads it and queues it, due ``delay`` later; the writer sleeps
@@ -39,6 +41,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 
+from wiswarm_zenoh.testbed.shaper import Shaper, SharedLink
 from wiswarm_zenoh.units import parse_seconds
 from wiswarm_zenoh.usage import OneLineParser
 
@@ -78,9 +81,10 @@ class _Pipe:
     a writer thread; chunk b"" is an EOF, None a reset."""
 
     def __init__(self, conn: _Connection, src: socket.socket, dst: socket.socket,
-                 to_target: bool, delay: float) -> None:
+                 to_target: bool, delay: float, shaper: Shaper | None) -> None:
         self.conn, self.src, self.dst, self.to_target, self.delay = (
             conn, src, dst, to_target, delay)
+        self.shaper, self.chunk = shaper, CHUNK if shaper is None else shaper.chunk
         self.cond = threading.Condition()
         self.fifo: deque[tuple[float, bytes | None]] = deque()
         self.held, self.paused = 0, False  # bytes in the FIFO; the reader waits for room
@@ -104,18 +108,26 @@ class _Pipe:
                     return
             data: bytes | None = None  # a reset, passed on after the delay
             with contextlib.suppress(OSError):
-                data = self.src.recv(CHUNK)
-            due = time.monotonic() + self.delay
-            with self.cond:
-                if conn.aborted:
-                    return
-                if not self.fifo:  # else the writer waits for the head, due first
-                    self.cond.notify_all()
-                self.fifo.append((due, data))
-                self.held += len(data or b"")
-                conn.relay._note(peak_held_bytes=self.held)  # cond, then the relay's lock
+                data = self.src.recv(self.chunk)
+            if self.shaper is None:
+                self.arrive(data)
+            elif not self.shaper.put(len(data or b""), functools.partial(self.arrive, data),
+                                     lambda: conn.aborted):
+                return
             if not data:
                 return
+
+    def arrive(self, data: bytes | None) -> None:
+        """Bytes read (or, over a shared link, let out by it): due ``delay`` from now."""
+        due = time.monotonic() + self.delay
+        with self.cond:
+            if self.conn.aborted:
+                return
+            if not self.fifo:  # else the writer waits for the head, due first
+                self.cond.notify_all()
+            self.fifo.append((due, data))
+            self.held += len(data or b"")
+            self.conn.relay._note(peak_held_bytes=self.held)  # cond, then the relay's lock
 
     def write(self) -> None:
         conn = self.conn
@@ -154,8 +166,9 @@ class _Connection:
     def __init__(self, relay: DelayRelay, client: socket.socket, upstream: socket.socket,
                  peer: Address) -> None:
         self.relay, self.socks = relay, (client, upstream)
-        self.pipes = (_Pipe(self, client, upstream, True, relay.delay),
-                      _Pipe(self, upstream, client, False, relay.delay_back))
+        up, down = (None, None) if relay.link is None else (relay.link.up, relay.link.down)
+        self.pipes = (_Pipe(self, client, upstream, True, relay.delay, up),
+                      _Pipe(self, upstream, client, False, relay.delay_back, down))
         self.name = f"{_name(peer)} -> {_name(relay.target)}"
         self.aborted, self._lock, self._running = False, threading.Lock(), 4  # threads
 
@@ -198,24 +211,27 @@ class _Connection:
             with contextlib.suppress(OSError):
                 pipe.dst.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _LINGER_RESET)
                 pipe.dst.shutdown(socket.SHUT_RDWR if sending else socket.SHUT_RD)
+        if self.relay.link is not None:  # a reader waiting for room in the link
+            self.relay.link.wake()
 
 
 class DelayRelay:
     """Relays each TCP connection made to ``listen`` to ``target``, every byte ``delay``
-    seconds late (the way back ``delay_back``, by default the same). ``with DelayRelay(...)
-    as relay`` starts it (``relay.port``: the port bound) and stops it, resetting the
-    connections still open."""
+    seconds late (the way back ``delay_back``, by default the same); with ``link``, every
+    connection's bytes first cross that shared link (its ``up`` towards the target).
+    ``with DelayRelay(...) as relay`` starts it (``relay.port``: the port bound) and the
+    link, and stops both, resetting the connections still open."""
 
     def __init__(self, listen: Address, target: Address, delay: float, *,
                  delay_back: float | None = None, max_held: int = DEFAULT_MAX_HELD,
-                 max_lag: float = DEFAULT_MAX_LAG) -> None:
+                 max_lag: float = DEFAULT_MAX_LAG, link: SharedLink | None = None) -> None:
         delay_back = delay if delay_back is None else delay_back
         if not (0 <= delay < math.inf and 0 <= delay_back < math.inf and max_lag >= 0
                 and max_held >= 1):  # max_lag inf: only max_held pauses reading
             raise ValueError(f"need finite delays >= 0, max_lag >= 0, max_held >= 1, got "
                              f"{delay!r}, {delay_back!r}, {max_lag!r}, {max_held!r}")
         self.listen, self.target, self.delay, self.delay_back = listen, target, delay, delay_back
-        self.max_held, self.max_lag = max_held, max_lag
+        self.max_held, self.max_lag, self.link = max_held, max_lag, link
         self.port = listen[1]
         self._lock = threading.Lock()
         self._idle = threading.Condition(self._lock)
@@ -238,6 +254,8 @@ class DelayRelay:
         family = socket.AF_INET6 if ":" in self.listen[0] else socket.AF_INET
         self._listener = socket.create_server(self.listen, family=family, backlog=128)
         self.port = self._listener.getsockname()[1]
+        if self.link is not None:
+            self.link.start()
         with self._lock:
             self._spawn(f"delay-relay accept :{self.port}", self._accept_loop)
         log.info("relay listening on %s, to %s, %g/%g ms", _name((self.listen[0], self.port)),
@@ -256,6 +274,8 @@ class DelayRelay:
             self._listener.shutdown(socket.SHUT_RDWR)  # wakes accept()
         for conn in connections:
             conn.abort()
+        if self.link is not None:  # wakes readers waiting for room, drops what waits
+            self.link.stop()
         for thread in self._threads:
             thread.join()
         self._listener.close()

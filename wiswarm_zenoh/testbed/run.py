@@ -8,8 +8,9 @@ own, so each runs in its station's namespace, a process per station. After a war
 AoI is measured over the window from the receiver's record of every delivery, with the
 generation time each frame carries (ground truth: every process reads the same host
 clock), identically for every system. The run is supervised: a process that dies is
-logged with the time and started again, and a rate changed on the channel (``wiswarm
-testbed set``) is noted when seen; the WiFi medium falling behind real time fails it.
+logged with the time and its exit code and started again, one that ends by an error when
+the run stops is noted too, and a rate changed on the channel (``wiswarm testbed set``)
+is noted when seen; the WiFi medium falling behind real time fails it.
 """
 
 from __future__ import annotations
@@ -37,6 +38,7 @@ from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.nodes import Placement
+from wiswarm_zenoh.testbed.reassembly import reassembly
 from wiswarm_zenoh.testbed.wifi import WifiMedium, window_counters
 from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
@@ -110,8 +112,9 @@ class RunSpec:
 @dataclass
 class RunOutcome:
     """What a run measured, and what happened during it (time since the run's start).
-    The channel's counters cover the window: its throughput each way, tail drops, and
-    the uplink queue's mean backlog (what explains a baseline's age)."""
+    The channel's counters cover the window: its throughput each way, tail drops, the
+    uplink queue's mean backlog (what explains a baseline's age), and the leader side's
+    IP reassembly (``reasm_*``: fragments, datagrams rebuilt, failures; UDP's frames)."""
 
     result: WifiResult
     events: list[str] = field(default_factory=list)
@@ -215,6 +218,23 @@ def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Pa
     children.wait_ready()
 
 
+class _Children(Children):
+    """The run's processes, and how each one ended (for its report)."""
+
+    def exit_code(self, name: str) -> int | None:
+        """Child ``name``'s exit code; None while it runs."""
+        return self._procs[name].exitcode
+
+
+def ending(name: str, code: int | None) -> str:
+    """How a process ended, for a run's events: by an error, a signal, or not at all."""
+    if code is None:
+        return f"{name} process did not end"
+    if code < 0:
+        return f"{name} process was killed by signal {-code}"
+    return f"{name} process ended with exit code {code}"
+
+
 class _Watch:
     """Samples the channel during a run: its queue, its rate (noting any change)."""
 
@@ -301,7 +321,14 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
     place = Placement(channel.leader_ns, groups[0][1], channel.leader_addr)
     record = workdir / f"{spec.label}-n{spec.n}-b{spec.batch}.csv"
     events: list[str] = []
-    with Children(multiprocessing.get_context("spawn")) as children:
+    reasm0 = reassembly(channel.leader_ns)
+    if reasm0.held:  # a namespace used before: the fragments of the run before are there
+        events.append(f"t=0.0s: the leader side held {reasm0.held} incomplete datagrams "
+                      f"({reasm0.held_bytes} B) at the start: UDP may lose frames to them")
+        log.warning("%s", events[-1])
+    names = ("router", "leader", *(group[0] for group in groups))
+    children = _Children(multiprocessing.get_context("spawn"))
+    with children:
         _start_nodes(children, place, spec, record, groups)
         started = time.time()
         t0 = started + spec.warmup
@@ -311,25 +338,29 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
             else _MediumWatch(channel))
         opened = False
         while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
-            for name in ("router", "leader", *(group[0] for group in groups)):
+            for name in names:
                 if not children.alive(name):
-                    events.append(f"t={time.time() - started:.1f}s: {name} process ended; "
-                                  "started again")
+                    events.append(f"t={time.time() - started:.1f}s: "
+                                  f"{ending(name, children.exit_code(name))}; started again")
                     children.restart(name)
             if time.time() >= t0:
                 if not opened:
                     watch.open()
-                    opened = True
+                    reasm0, opened = reassembly(channel.leader_ns), True
                 watch.sample()
             if on_tick is not None:
                 on_tick(min(1.0, (time.time() - started) / (t1 - started)))
         end = min(time.time(), t1)
         watch.sample()
+        reasm1 = reassembly(channel.leader_ns)
+    stopped = time.time() - started
+    events += [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
+               if (code := children.exit_code(name)) != 0]
     complete = end >= t1
     span = max(0.0, end - t0)
     metrics = window_metrics(read_record(record), spec.followers, started, t0,
                              max(end, t0), spec.frame_bytes)
-    counters = {**watch.counters(span), **poll_counters(record)}
+    counters = {**watch.counters(span), **reasm1.since(reasm0), **poll_counters(record)}
     result = WifiResult(system=spec.system, n=spec.n,
                         rate=None if spec.system == "wiswarm" else spec.rate,
                         frame_bytes=spec.frame_bytes, duration=span, seed=spec.batch,

@@ -84,6 +84,10 @@ class ChannelSpec:
         """The leader -> followers rate (the uplink's unless set)."""
         return self.rate_bps if self.down_rate_bps is None else self.down_rate_bps
 
+    def limit_bytes(self, rate_bps: int) -> int:
+        """tbf's queue limit in one direction of that rate: ``rate * latency + burst``."""
+        return int(rate_bps / 8 * self.queue_s + self.burst_bytes)
+
 
 DEFAULT_SPEC = ChannelSpec()
 

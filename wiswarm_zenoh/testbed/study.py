@@ -12,14 +12,20 @@ three neighbours, usually two to four runs instead of ten.
 With ``medium`` set, every run goes over ns-3's WiFi medium instead, a station per
 follower (``wifi``), built once per worker with as many stations as the largest N.
 
-Runs go to ``parallel`` workers, each with a channel of its own (the channels are
-independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per channel the
-CPU is not what limits a run). A run's measurements are kept as they complete, so a
+Runs go to ``parallel`` workers at once, every run on a channel built for it alone (the
+channels are independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per
+channel the CPU is not what limits a run). Fresh namespaces, not one channel per worker:
+runs that share a namespace share its kernel state, and a UDP run at 50 fps leaves the
+reassembly memory full of incomplete datagrams for 30 s, which makes the next run's UDP
+deliver nothing (``reassembly.py``). The WiFi medium is the exception: its scenario is
+built and started per worker, not per run (a run's start counts the leader side's
+held fragments in its events). A run's measurements are kept as they complete, so a
 study cut short by Ctrl-C reports what it measured.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import threading
@@ -32,7 +38,6 @@ from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import (
     SYSTEMS,
     WISWARM_SAMPLE_RATE,
-    Medium,
     RunOutcome,
     RunSpec,
     measure,
@@ -89,10 +94,11 @@ class StudyConfig:
         rate = self.channel.rate_bps if self.medium is None else self.medium.capacity_bps
         return share_fps(rate, n, self.frame_bytes)
 
-    def build_medium(self) -> Medium:
-        """A worker's own channel, or WiFi medium with a station for the largest N."""
+    def build_medium(self) -> WifiMedium:
+        """A worker's WiFi medium, with a station for the largest N (the tbf channel is
+        built per run instead: ``measure_fresh``)."""
         if self.medium is None:
-            return Channel(self.channel)
+            raise ValueError("no WiFi medium: the tbf channel is built per run")
         return WifiMedium(replace(self.medium, stations=max(self.ns)))
 
     @property
@@ -168,12 +174,20 @@ class StudyResults:
             self.outcomes.append(outcome)
 
 
+def measure_fresh(channel: ChannelSpec, spec: RunSpec, workdir: Path,
+                  stop: threading.Event) -> RunOutcome:
+    """``spec`` measured on a channel built for it and removed after it: namespaces in
+    the state the kernel makes them, nothing left by the run before (see module)."""
+    with Channel(channel) as fresh:
+        return measure(fresh, spec, workdir, stop)
+
+
 def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int], None],
               stop: threading.Event | None = None) -> StudyResults:
     """Run every job of the plan on ``config.parallel`` channels; returns what was
     measured, also when Ctrl-C or ``stop`` ends it midway (``interrupted``; the runs in
-    progress are kept, over the window they measured). Each channel is removed when
-    its worker ends."""
+    progress are kept, over the window they measured). Each run's channel is removed
+    when the run ends; a worker's WiFi medium when the worker ends."""
     stop = stop or threading.Event()
     results = StudyResults()
     jobs: queue.SimpleQueue[Job] = queue.SimpleQueue()
@@ -182,11 +196,12 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
     completed = [0]
     failures: list[BaseException] = []
 
-    def run_on(channel: Medium) -> Measure:
+    def run_on(medium: WifiMedium | None) -> Measure:
         def run(spec: RunSpec) -> RunOutcome:
             if stop.is_set():
                 raise _Stopped
-            outcome = measure(channel, spec, workdir, stop)
+            outcome = (measure_fresh(config.channel, spec, workdir, stop) if medium is None
+                       else measure(medium, spec, workdir, stop))
             if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
                 raise _Stopped
             results.add(outcome)
@@ -202,8 +217,9 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
 
     def worker(done: threading.Event) -> None:
         try:
-            with config.build_medium() as channel:
-                run = run_on(channel)
+            with contextlib.ExitStack() as stack:
+                run = run_on(None if config.medium is None
+                             else stack.enter_context(config.build_medium()))
                 while not stop.is_set():
                     try:
                         job = jobs.get_nowait()

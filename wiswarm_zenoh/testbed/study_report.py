@@ -115,8 +115,8 @@ def write_study(out: Path, config: StudyConfig, results: StudyResults) -> list[P
     out.mkdir(parents=True, exist_ok=True)
     points = summarise(config, results)
     files = [out / "runs.csv", out / "summary.csv"]
-    ordered = sorted((o.result for o in results.outcomes), key=lambda r: (r.n, label_of(r)))
-    write_runs_csv(files[0], ordered)
+    ordered = sorted(results.outcomes, key=lambda o: (o.result.n, label_of(o.result)))
+    write_runs_csv(files[0], [o.result for o in ordered], [o.events for o in ordered])
     write_summary_csv(files[1], points)
     if not points:
         return files
@@ -175,6 +175,7 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
         *air,
         "## What happened during the runs",
         "",
-        *(events or ["- nothing: no process ended, the channel's rate did not change"]),
+        *(events or ["- nothing: every process ran to the end and stopped cleanly, the "
+                     "channel's rate did not change"]),
         "",
     ])

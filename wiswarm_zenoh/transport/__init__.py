@@ -5,6 +5,7 @@ from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.control import ControlListener
 from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.follower_node import FollowerNode
+from wiswarm_zenoh.transport.freshest import Freshest
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.report import LiveTable
@@ -24,6 +25,7 @@ __all__ = [
     "Children",
     "ControlListener",
     "FollowerNode",
+    "Freshest",
     "LeaderNode",
     "LiveTable",
     "ReadySignal",

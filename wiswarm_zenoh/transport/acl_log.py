@@ -24,21 +24,35 @@ TABLE = re.compile(rb"ThreadId\((?P<thread>\d+)\).*access_control: ACL \(\w+\): 
                    rb"caching permissions for `")
 COMMON_NAME = re.compile(rb"CertCommonName\(([^)]*)\)")
 ALLOWED = b" is authorized to "
+QUIET = b"Access control is disabled"  # said at debug on every router without rules
+# A client speaking plain TCP to a TLS listener (or the reverse): Zenoh's own line blames
+# the open file limit, every 0.5 s; said once, in words that point at the cause.
+WRONG_PROTOCOL = b"InvalidContentType"
+WRONG_PROTOCOL_SAID = (b"WARN a node reached this TLS endpoint without TLS (a tcp/ "
+                       b"endpoint, or no certificates): give it tls/HOST:PORT and its "
+                       b"config from wiswarm security (said once)\n")
 TABLE_ROWS = 9  # message types in a table: query, reply, put, delete, three declarations,
 # liveliness query and liveliness subscriber (Zenoh 1.10)
 
 
 class DenialFilter:
     """Feed Zenoh's log lines; get back the lines to show: refusals as one readable line
-    each, other log lines unchanged, allowed messages and permission tables not at all."""
+    each, a node without TLS at a TLS endpoint once, other log lines unchanged, allowed
+    messages, permission tables and "access control is disabled" not at all."""
 
     def __init__(self) -> None:
         self._table_rows: dict[bytes, int] = {}  # by thread: rows of a table still to come
         self._names: dict[bytes, bytes] = {}  # session id -> certificate common name
+        self._wrong_protocol_said = False
 
     def feed(self, line: bytes) -> bytes | None:
         if ALLOWED in line and not any(self._table_rows.values()):
             return None  # most lines, by far: a message let through (no table to count)
+        if QUIET in line:
+            return None
+        if WRONG_PROTOCOL in line:
+            said, self._wrong_protocol_said = self._wrong_protocol_said, True
+            return None if said else WRONG_PROTOCOL_SAID
         plain = ANSI.sub(b"", line).rstrip(b"\r\n")
         decision = DECISION.match(plain)
         if decision is None:

@@ -23,7 +23,9 @@ class BadInputLog:
         self._quiet: Counter[str] = Counter()
         self._lock = threading.Lock()
 
-    def report(self, key: str, reason: str) -> None:
+    def report(self, key: str, reason: str, expected: bool = False) -> None:
+        """Count a bad message from ``key``; ``expected``: a known consequence of
+        something that happened here (logged at INFO), not a sender to look at."""
         now = self._clock()
         with self._lock:
             self.counts[key] += 1
@@ -34,7 +36,8 @@ class BadInputLog:
             self._last[key] = now
             quiet = self._quiet.pop(key, 0)
         more = f" (and {quiet} more since the last report)" if quiet else ""
-        self._logger.warning("bad input from %s: %s%s", key, reason, more)
+        level = logging.INFO if expected else logging.WARNING
+        self._logger.log(level, "bad input from %s: %s%s", key, reason, more)
 
     def total(self) -> int:
         with self._lock:

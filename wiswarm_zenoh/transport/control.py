@@ -40,15 +40,27 @@ class ControlListener:
         self._lock = lock if lock is not None else threading.Lock()
         self._clock = clock
         self.bad_input = bad_input if bad_input is not None else BadInputLog(log)
+        self._heard_at = time.monotonic()  # when the last control message came
+        self._after_gap_until = 0.0  # messages before this are expected to be stale
         self._shared = SessionControl.join(session, SwarmKeys(swarm).control, self)
 
     def take(self, control: Control, key: str) -> None:
-        """A control message on ``key``, decoded once for every listener of the session."""
+        """A control message on ``key``, decoded once for every listener of the session.
+        After a gap of more than ``RESUME_GAP`` with no control (this process was
+        stopped, or cut off), the messages queued meanwhile come stamped too far from
+        their leader's clock: expected, counted, and said at INFO."""
+        heard = time.monotonic()
+        if heard - self._heard_at > RESUME_GAP:
+            self._after_gap_until = heard + RESUME_GAP
+        self._heard_at = heard
         try:
             with self._lock:
                 entry = self._core.take_control(control, self._clock())
         except WireError as exc:
-            self.bad_input.report(key, str(exc))
+            expected = heard < self._after_gap_until
+            self.bad_input.report(key, str(exc) + (" (queued while this follower was "
+                                                   "stopped or cut off)" if expected else ""),
+                                  expected)
             return
         if entry is not None and self._on_control is not None:
             self._on_control(entry)
@@ -56,6 +68,8 @@ class ControlListener:
     def close(self) -> None:
         self._shared.leave(self)
 
+
+RESUME_GAP = 1.0  # seconds without control (repeated every 0.1 s) that make a gap
 
 _SHARED: dict[tuple[zenoh.Session, str], SessionControl] = {}
 _SHARED_LOCK = threading.Lock()

@@ -31,6 +31,7 @@ import zenoh
 
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_name
+from wiswarm_zenoh.units import format_epoch
 
 log = logging.getLogger(__name__)
 
@@ -119,8 +120,8 @@ class Election:
             active = min(self._claims)
             changed, self._active = active != self._active, active
         if changed:
-            log.warning("leader %s (started at %d us) is active now%s", active[1], active[0],
-                        ": this process" if active == self.claim else "")
+            log.info("leader %s (started %s) is active now%s", active[1],
+                     format_epoch(active[0]), ": this process" if active == self.claim else "")
             self._on_change()
 
     def close(self) -> None:

@@ -43,6 +43,7 @@ from wiswarm_zenoh.core import (
 )
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.bridge import BridgeOptions
 from wiswarm_zenoh.transport.delivery_stream import DeliveryStream
 from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.entities import undeclare
@@ -52,6 +53,7 @@ from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.transport.stats_rounds import StatsRounds
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
+from wiswarm_zenoh.units import format_epoch
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -89,6 +91,9 @@ class LeaderNode:
 
     A follower whose token goes is polled no more; its stats go on, ageing, for
     ``forget_after`` seconds (``membership``).
+
+    ``bridge`` (e.g. ``wiswarm_zenoh.ros2.Ros2Options``) opens a bridge to another
+    ecosystem, handed each delivery and each whole round of stats on the poll thread.
     """
 
     def __init__(
@@ -108,6 +113,7 @@ class LeaderNode:
         epoch: int | None = None,
         name: str | None = None,
         forget_after: float = FORGET_AFTER,
+        bridge: BridgeOptions | None = None,
     ) -> None:
         self.keys = SwarmKeys(swarm)
         self._session = session
@@ -143,6 +149,7 @@ class LeaderNode:
         self._handover.own_epoch = self._leader.epoch
         self._election = Election(session, self.keys, self.name, self._leader.epoch,
                                   lambda: self._inbox.put(None))
+        self.bridge = None if bridge is None else bridge.open(session, swarm, self)
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
         self._thread.start()
 
@@ -197,6 +204,8 @@ class LeaderNode:
         self._stop.set()
         self._inbox.put(None)
         self._thread.join()
+        if self.bridge is not None:
+            self.bridge.close()
         self._election.close()  # a standby takes over now
         self._handover.close()
         self._membership.close()
@@ -261,11 +270,12 @@ class LeaderNode:
         control the leader before left), or stand by."""
         self._active = self._election.leading
         if not self._active:
-            log.warning("leader %s stands by (an older leader is active: %s)", self.name,
+            log.info("leader %s stands by (an older leader is active: %s)", self.name,
                         self._election.active[1])
         else:
             self._raise_epoch(take_state=True)
-            log.warning("leader %s is active, epoch %d", self.name, self._leader.epoch)
+            log.info("leader %s is active, epoch %s", self.name,
+                     format_epoch(self._leader.epoch))
         if self._on_role is not None:
             _notify(self._on_role, self._active)
 
@@ -312,6 +322,8 @@ class LeaderNode:
                 if link is not None and link.listening:
                     link.fresh.put(event.payload, attachment=fresh_attachment(event))
                 self._deliveries.add(event, event.delivered_at)
+                if self.bridge is not None:
+                    _notify(self.bridge.deliver, event)
                 if self._on_delivery is not None:
                     _notify(self._on_delivery, event)
             elif isinstance(event, TimedOut):
@@ -349,4 +361,8 @@ class LeaderNode:
             return
         if self._stats.between_rounds and self._handover.epoch >= self._leader.epoch:
             self._raise_epoch(take_state=False)
+        latest = self._stats.latest
         self._stats.publish(now, self._leader, self._lock, self._links)
+        if self.bridge is not None and self._stats.latest is not latest:  # a round is done
+            bridge = self.bridge
+            _notify(lambda records: bridge.stats(records, now), self._stats.latest)

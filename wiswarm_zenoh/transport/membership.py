@@ -77,9 +77,9 @@ class Membership:
                 log.info("follower %s joined", follower)
             elif follower in self.links and follower not in self._departed_at:
                 with lock:
-                    leader.remove_follower(follower)
+                    leader.remove_follower(follower, now)
                 self._departed_at[follower] = now  # its link stays: its stats go on
-                log.warning("follower %s left (its liveliness token is gone): polled no "
+                log.info("follower %s left (its liveliness token is gone): polled no "
                             "more; its stats show its age growing for %.0f s", follower,
                             self._forget_after)
             else:

@@ -3,24 +3,34 @@
 Zenoh reconnects by itself (``zenoh_config.RECONNECT``) but says little about it at the
 default log level; a node that is cut off from the swarm must say so, in its own log.
 Checked a few times a second from the node's supervision loop (``wait_until_stopped``).
+A node told where its router is (``endpoints``) that has reached none after
+``STARTUP_GRACE`` says so once, with what to check (nothing listening there, or a TLS
+router asked without TLS), and says it again the moment one is reached.
 """
 
 from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Sequence
 
 import zenoh
 
 log = logging.getLogger(__name__)
 
+STARTUP_GRACE = 3.0  # seconds a node may take to reach its router before it says so
+
 
 class RouterWatch:
     """Logs the moment ``session`` has no router any more, and when it has one again."""
 
-    def __init__(self, session: zenoh.Session, node: str) -> None:
+    def __init__(self, session: zenoh.Session, node: str,
+                 endpoints: Sequence[str] = ()) -> None:
         self._session = session
         self._node = node
+        self._endpoints = list(endpoints)  # where its router should be (none: a peer)
+        self._started = time.monotonic()
+        self._unreached_said = False
         self._connected = self._routers() > 0  # a peer with no router never warns
         self._lost_at: float | None = None
 
@@ -29,6 +39,8 @@ class RouterWatch:
 
     def check(self) -> None:
         routers = self._routers()
+        if not self._connected:  # a peer reached at its endpoint counts too
+            self._check_first(routers > 0 or any(True for _ in self._session.info.peers_zid()))
         if routers and self._lost_at is not None:
             log.warning("%s: router reached again after %.1f s", self._node,
                         time.monotonic() - self._lost_at)
@@ -37,3 +49,17 @@ class RouterWatch:
             self._lost_at = time.monotonic()
             log.warning("%s: lost its router; reconnecting", self._node)
         self._connected = self._connected or routers > 0
+
+    def _check_first(self, reached: bool) -> None:
+        """Before the first router: say so once after the grace, and when it comes."""
+        waited = time.monotonic() - self._started
+        if reached and self._unreached_said:
+            log.warning("%s: router reached, after %.1f s", self._node, waited)
+        elif not reached and self._endpoints and not self._unreached_said \
+                and waited >= STARTUP_GRACE:
+            self._unreached_said = True
+            where = ", ".join(self._endpoints)
+            log.warning("%s: no router reached at %s after %.0f s: is one listening there "
+                        "(wiswarm router -l ...)? A TLS router takes tls/HOST:PORT and this "
+                        "node's config from wiswarm security. Still trying", self._node,
+                        where, waited)

@@ -23,6 +23,7 @@ from typing import Any, Protocol
 import zenoh
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.transport.bridge import BridgeOptions
 from wiswarm_zenoh.transport.edge import Upstream
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.frames import (
@@ -158,7 +159,8 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         feeds, watches = [], []
         for option in options:
             session = stack.enter_context(spec.open())
-            watches.append(RouterWatch(session, f"follower {option.follower_id}"))
+            watches.append(RouterWatch(session, f"follower {option.follower_id}",
+                                       spec.connect))
             node = stack.enter_context(
                 FollowerNode(session, option.swarm, option.follower_id, option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
@@ -224,6 +226,7 @@ class LeaderOptions:
     name: str | None = None  # the leader's name among its swarm's leaders (see election)
     upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
     site: str | None = None  # its name there (followers appear as <site>.<follower>)
+    bridge: BridgeOptions | None = None  # e.g. the ROS 2 side (wiswarm_zenoh.ros2)
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -249,10 +252,11 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                control_period=options.control_period, name=options.name)
+                control_period=options.control_period, name=options.name,
+                bridge=options.bridge)
             if upstream is not None:
                 upstream.set_control = node.set_control
-            _lead(node, session, options, stop, ready, show)
+            _lead(node, session, spec.connect, options, stop, ready, show)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
@@ -276,14 +280,14 @@ def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream |
         upstream.close()
 
 
-def _lead(node: LeaderNode, session: zenoh.Session, options: LeaderOptions,
-          stop: StopSignal, ready: ReadySignal | None,
+def _lead(node: LeaderNode, session: zenoh.Session, endpoints: Sequence[str],
+          options: LeaderOptions, stop: StopSignal, ready: ReadySignal | None,
           show: Callable[[LeaderNode], None] | None) -> None:
     """Run ``node`` until stopped; ``show`` it a few times a second."""
     with node:
         if ready is not None:
             ready.set()
-        watch = RouterWatch(session, f"leader of {options.swarm!r}")
+        watch = RouterWatch(session, f"leader of {options.swarm!r}", endpoints)
 
         def tick() -> None:
             watch.check()

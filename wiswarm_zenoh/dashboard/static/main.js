@@ -118,7 +118,10 @@ function showLeader() {
   }
   element.classList.remove("alarm");
   if (leader === null) return;
-  const name = leader.leader ? `leader ${leader.leader}, epoch ${leader.epoch}` : "leader";
+  // the epoch is the time (us since 1970) the leader took its role: shown as that time
+  const since = leader.epoch ? new Date(leader.epoch / 1000).toISOString().replace("T", " ")
+    .slice(0, 19) + " UTC" : "";
+  const name = leader.leader ? `leader ${leader.leader}, active since ${since}` : "leader";
   element.textContent = `${name} · ${leader.policy} · ${leader.followers.length} followers` +
     ` · ${(leader.polls_per_s || 0).toFixed(0)} polls/s · up ${(leader.uptime_s || 0).toFixed(0)} s`;
 }
@@ -155,12 +158,12 @@ function connect(attempt = 0) {
 
 function frame() {
   const now = leaderNow();
-  sawtooth.draw(now);
+  const present = status !== null && status.leader_alive && leader !== null
+    ? new Set(leader.followers) : null;
+  sawtooth.draw(now, present);
   const page = pageNow();
   if (page - tableAt >= TABLE_PERIOD_S) {
     tableAt = page;
-    const present = status !== null && status.leader_alive && leader !== null
-      ? new Set(leader.followers) : null;
     const names = new Set([...sawtooth.traces.keys(), ...table.stats.keys()]);
     table.render(names, (f) => sawtooth.age(f), colourOf, present);
     map.draw(page);

@@ -177,8 +177,10 @@ export class Sawtooth {
     return t === undefined || t.tau === null ? null : this.known - t.tau;
   }
 
-  draw(now) {
+  draw(now, present = null) {
     // One frame: the window ends at ``now`` (the leader's clock); tails climb to ``known``.
+    // The y axis fits the followers ``present`` (a Set; null: all): one that left keeps
+    // its growing age, drawn off the top, and does not squash the others' sawtooth.
     const from = now - this.windowS;
     if (now - this.prunedAt >= PRUNE_EVERY_S) {
       this.prunedAt = now;
@@ -189,8 +191,9 @@ export class Sawtooth {
       this.timeouts[1].splice(0, i);
     }
     let top = 0;
-    for (const t of this.traces.values()) {
+    for (const [follower, t] of this.traces) {
       if (t.tail(Math.min(this.known, now), from) === null) continue;
+      if (present !== null && !present.has(follower)) continue;
       for (let i = t.ys.length - 1; i >= 0 && t.xs[i] >= from; i--) {
         if (t.ys[i] > top) top = t.ys[i];
       }

@@ -1,0 +1,57 @@
+"""The ROS 2 flags of a leader (``wiswarm leader``, ``wiswarm demo``): ``--ros2`` and
+what it takes, refused in one line before anything starts."""
+
+from __future__ import annotations
+
+import argparse
+
+from wiswarm_zenoh.options.arguments import ArgType, integer
+from wiswarm_zenoh.ros2 import Ros2Options, adapter, adapter_names
+from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_namespace
+from wiswarm_zenoh.usage import UsageError
+
+
+def _adapter_name(text: str) -> str:
+    adapter(text)  # ValueError naming the registered ones
+    return text
+
+
+UPDATE_ADAPTER = ArgType("choice", _adapter_name)  # by name, as the application registered it
+
+
+LEADER_HELP = ("also be a ROS 2 participant over rmw_zenoh: each delivered "
+               "update on <ns>/<follower>/update, the followers' stats on /diagnostics, a "
+               "nav_msgs/msg/Path on <ns>/<follower>/waypoints sets that follower's waypoints "
+               "(ROS 2 nodes need RMW_IMPLEMENTATION=rmw_zenoh_cpp and this router)")
+
+
+def add_ros2_arguments(parser: argparse.ArgumentParser, updates: bool = True,
+                       what: str = LEADER_HELP) -> None:
+    """``--ros2`` (``what`` it does), ``--ros-domain``, ``--ros-namespace`` (and with
+    ``updates``, ``--ros-updates``: how a leader maps its updates)."""
+    parser.add_argument("--ros2", action="store_true", default=None, help=what)
+    parser.add_argument("--ros-domain", type=integer(0, MAX_DOMAIN), metavar="D",
+                        help="with --ros2: the ROS domain (ROS_DOMAIN_ID; default 0)")
+    parser.add_argument("--ros-namespace", metavar="NS",
+                        type=ArgType("ros namespace", check_namespace),
+                        help="with --ros2: the topics' namespace (default /wiswarm/<swarm>)")
+    if not updates:
+        return
+    parser.add_argument("--ros-updates", metavar="ADAPTER", type=UPDATE_ADAPTER,
+                        help="with --ros2: how updates become messages: bytes "
+                        "(std_msgs/msg/UInt8MultiArray, the default) or an application's "
+                        f"adapter ({', '.join(adapter_names())} ...; tracking: "
+                        "sensor_msgs/msg/Image and geometry_msgs/msg/PoseStamped)")
+
+
+def ros2_options(args: argparse.Namespace) -> Ros2Options | None:
+    """The ROS 2 side asked for, or None; a --ros-* flag without --ros2 is an error."""
+    given = [flag for flag in ("ros_domain", "ros_namespace", "ros_updates")
+             if getattr(args, flag, None) is not None]
+    if not args.ros2:
+        if given:
+            raise UsageError(f"--{given[0].replace('_', '-')} is for --ros2: add --ros2")
+        return None
+    return Ros2Options(domain=args.ros_domain or 0, namespace=args.ros_namespace,
+                       adapter=None if getattr(args, "ros_updates", None) is None
+                       else adapter(args.ros_updates))
