@@ -7,6 +7,7 @@ over a 20 Mbit/s shared link in user space (no root), and the two are compared:
     wiswarm demo --system push                      # one of them
     wiswarm demo --channel none                     # on bare loopback (nothing scarce)
     wiswarm demo --channel tbf --channel-rate 5mbit # namespaces and tc tbf (root)
+    wiswarm demo --channel wifi                     # each UAV an ns-3 802.11g station (root)
 """
 
 from __future__ import annotations
@@ -48,9 +49,9 @@ from wiswarm_zenoh.options import (
     ros2_options,
     writable_dir,
 )
-from wiswarm_zenoh.testbed import ChannelSpec
+from wiswarm_zenoh.testbed import ChannelSpec, WifiSpec
 
-CHANNELS = ("user", "tbf", "none")
+CHANNELS = ("user", "tbf", "wifi", "none")
 
 
 def _channel(text: str) -> str:
@@ -93,7 +94,9 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="what the UAVs' traffic to the leader crosses: user (default), a "
                         "shared link in user space (a relay on loopback with one token bucket "
                         "and FIFO per direction; no root); tbf, network namespaces and tc "
-                        "tbf (Linux, root); none, bare loopback (nothing scarce)")
+                        "tbf (Linux, root); wifi, each UAV a station of ns-3's 802.11g "
+                        "(Linux, root, ns-3; --channel-rate does not apply); none, bare "
+                        "loopback (nothing scarce)")
     parser.add_argument("--channel-rate", type=RATE, default=20_000_000, metavar="RATE",
                         help="the channel's rate each way, in tc's spelling (default 20mbit)")
     parser.add_argument("--channel-queue", type=TIME, default=0.2,
@@ -103,7 +106,7 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="no live web page (by default the demo serves the dashboard "
                         f"on port {DEFAULT_PORT}, or a free one, and prints its URL, and "
                         "serves the run live to Foxglove beside it; not with --channel "
-                        "tbf, where they would listen inside a namespace)")
+                        "tbf or wifi, where they would listen inside a namespace)")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
     add_ros2_arguments(parser)  # the demo's adapter by default: frames as images, poses
 
@@ -123,8 +126,8 @@ def options_from(args: argparse.Namespace, system: System = "wiswarm",
     """The run of ``system`` that the flags describe (UsageError if a value is bad);
     with ``out``, the run is recorded to ``out/run.mcap``."""
     try:
-        channel = None if args.channel == "none" else ChannelSpec(
-            rate_bps=args.channel_rate, queue_s=args.channel_queue)
+        channel = (None if args.channel == "none" else WifiSpec() if args.channel == "wifi"
+                   else ChannelSpec(rate_bps=args.channel_rate, queue_s=args.channel_queue))
         system = args.system or system
         ros2 = ros2_options(args) if system == "wiswarm" else None
         if ros2 is not None and ros2.adapter is None:
@@ -134,9 +137,10 @@ def options_from(args: argparse.Namespace, system: System = "wiswarm",
             system=system, rate_hz=args.rate, frame_px=args.frame_size,
             vehicle=args.vehicle, motion=args.motion, mode=args.mode, policy=args.policy,
             warmup_s=args.warmup, live=not args.no_live, channel=channel,
-            channel_kind="tbf" if args.channel == "tbf" else "user", ros2=ros2,
+            channel_kind="user" if args.channel == "none" else args.channel, ros2=ros2,
             mcap=None if out is None else out / "run.mcap",
-            dashboard_port=None if args.no_dashboard or args.channel == "tbf" else DEFAULT_PORT,
+            dashboard_port=(None if args.no_dashboard or args.channel in ("tbf", "wifi")
+                            else DEFAULT_PORT),
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -147,6 +151,8 @@ def crossing(options: demo.DemoOptions) -> str:
     spec = options.channel
     if spec is None:
         return "bare loopback (nothing scarce)"
+    if isinstance(spec, WifiSpec):
+        return f"the WiFi medium, a station per UAV ({spec.describe()})"
     kind = ("shared link in user space" if options.channel_kind == "user"
             else "tbf channel between network namespaces")
     return f"a {format_rate(spec.rate_bps)} {kind} ({spec.queue_s * 1e3:g} ms queue)"

@@ -22,7 +22,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from multiprocessing import connection
 from pathlib import Path
 from typing import Literal
@@ -49,6 +49,8 @@ from wiswarm_zenoh.testbed import (
     ChannelSpec,
     Placement,
     UserChannel,
+    WifiMedium,
+    WifiSpec,
     entered,
     run_in,
     run_link,
@@ -70,8 +72,8 @@ RESULT_TIMEOUT_S = 15.0
 CHECK_PERIOD = 0.25  # seconds between checks, while waiting for results, that UAVs live
 DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
 FRAME_SIZES = (224, 160)  # stationary runs / flights
-ChannelKind = Literal["user", "tbf"]
-CHANNEL_KINDS: tuple[ChannelKind, ...] = ("user", "tbf")
+ChannelKind = Literal["user", "tbf", "wifi"]
+CHANNEL_KINDS: tuple[ChannelKind, ...] = ("user", "tbf", "wifi")
 
 
 @dataclass(frozen=True)
@@ -91,8 +93,10 @@ class DemoOptions:
     warmup_s: float = 2.0
     live: bool = False
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
-    channel: ChannelSpec | None = None  # the UAVs behind a shared channel of this shape
-    channel_kind: ChannelKind = "tbf"  # tbf: namespaces (root); user: a relay on loopback
+    # the UAVs behind a shared channel of this shape, or each a station of the WiFi medium
+    channel: ChannelSpec | WifiSpec | None = None
+    # tbf: namespaces (root); user: a relay on loopback; wifi: ns-3's medium (root)
+    channel_kind: ChannelKind = "tbf"
     dashboard_port: int | None = DEFAULT_PORT  # the live page (None: none)
     ros2: Ros2Options | None = None  # the leader is also a ROS 2 node
     mcap: Path | None = None  # where the run is recorded for Foxglove (None: not recorded)
@@ -122,18 +126,25 @@ class DemoOptions:
         if self.channel_kind not in CHANNEL_KINDS:
             raise ValueError(f"channel kind must be one of {CHANNEL_KINDS}, got "
                              f"{self.channel_kind!r}")
+        if (self.channel is not None
+                and isinstance(self.channel, WifiSpec) != (self.channel_kind == "wifi")):
+            raise ValueError("the wifi channel kind goes with a WifiSpec, user and tbf with "
+                             f"a ChannelSpec, got {self.channel_kind!r} with "
+                             f"{type(self.channel).__name__}")
         if self.ros2 is not None and self.system != "wiswarm":
             raise ValueError("--ros2 is for --system wiswarm: the push baseline has no leader")
         if self.dashboard_port is not None and self.namespaces:
-            raise ValueError("the dashboard cannot run with --channel tbf: its page would "
+            raise ValueError(f"the dashboard cannot run with --channel {self.channel_kind}: "
+                             "its page would "
                              "listen inside the leader's network namespace (add "
                              "--no-dashboard)")
         self.world_config()  # the world must fit the UAVs' cars
 
     @property
     def namespaces(self) -> bool:
-        """Whether the run builds the tbf channel's network namespaces (root)."""
-        return self.channel is not None and self.channel_kind == "tbf"
+        """Whether the run builds network namespaces (root): the tbf channel's or the
+        WiFi medium's."""
+        return self.channel is not None and self.channel_kind in ("tbf", "wifi")
 
     @property
     def rate(self) -> float:
@@ -212,17 +223,28 @@ class _Sides:
     uav: SessionSpec
     leader: SessionSpec
     leader_ns: str | None = None  # None: all on this host's loopback
-    uav_ns: str | None = None
+    uav_ns: tuple[str | None, ...] = (None,)  # UAV i's: its own, or all one side's
     link: UserChannel | None = None  # the user-space link's relay, started first
+
+    def uav_ns_of(self, index: int) -> str | None:
+        return self.uav_ns[index % len(self.uav_ns)]
 
 
 def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
     """Loopback, the two ends of a user-space link, or the two sides of an emulated
-    channel built for this run."""
+    channel or WiFi medium built for this run."""
     if options.channel is None:
         port = free_tcp_port()
         uav = SessionSpec.loopback(options.mode, connect_ports=[port])
         return _Sides(SessionSpec.loopback("router", port), uav, uav)
+    if isinstance(options.channel, WifiSpec):
+        medium = stack.enter_context(WifiMedium(replace(options.channel,
+                                                        stations=options.uavs)))
+        log.info("%s", medium.describe())
+        stations = tuple(medium.station_namespaces)
+        place = Placement(medium.leader_ns, stations[0], medium.leader_addr)
+        return _Sides(place.router(), place.follower(), place.leader(), medium.leader_ns,
+                      stations)
     if options.channel_kind == "user":
         link = UserChannel.on_free_ports(options.channel)
         log.info("%s", link.describe())
@@ -231,7 +253,7 @@ def _sides(options: DemoOptions, stack: ExitStack) -> _Sides:
     log.info("%s", channel.describe())
     place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
     return _Sides(place.router(), place.follower(), place.leader(), channel.leader_ns,
-                  channel.follower_ns)
+                  (channel.follower_ns,))
 
 
 def _start(children: Children, name: str, ns: str | None, target: Callable[..., object],
@@ -256,7 +278,7 @@ def run(options: DemoOptions) -> DemoRun:
         for index, uav in enumerate(options.uav_ids):
             mine, theirs = ctx.Pipe()
             links[uav] = UavLink(mine)
-            _start(children, uav, sides.uav_ns, run_uav, sides.uav,
+            _start(children, uav, sides.uav_ns_of(index), run_uav, sides.uav,
                    options.uav_options(index), UavLink(theirs), wait=False)
         children.wait_ready()
 

@@ -15,6 +15,7 @@ import csv
 import json
 import math
 from collections.abc import Iterable, Sequence
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +24,7 @@ from numpy.typing import NDArray
 from apps.tracking.demo import DemoOptions, DemoRun
 from apps.tracking.reception import DeliveryRow
 from apps.tracking.uav_app import SAMPLE_FIELDS
+from wiswarm_zenoh.testbed import ChannelSpec
 
 MAIN_KEYS = ("mean_aoi_s", "p95_aoi_s", "mean_tracking_error_m", "in_view_share")
 UAV_KEYS = (*MAIN_KEYS, "peak_aoi_s", "p95_tracking_error_m", "mean_tracking_error_px",
@@ -67,12 +69,16 @@ def average(per_uav: Iterable[dict[str, Number]]) -> dict[str, Number]:
 
 
 def channel_entry(options: DemoOptions) -> dict[str, object] | None:
-    """The channel a run crossed (None: loopback, nothing scarce)."""
+    """The channel a run crossed (None: loopback, nothing scarce): a shared link's shape,
+    or the WiFi medium's."""
     spec = options.channel
-    return None if spec is None else {
-        "kind": options.channel_kind, "rate_bps": spec.rate_bps,
-        "down_rate_bps": spec.down_bps, "queue_s": spec.queue_s,
-        "burst_bytes": spec.burst_bytes}
+    if spec is None:
+        return None
+    if isinstance(spec, ChannelSpec):
+        return {"kind": options.channel_kind, "rate_bps": spec.rate_bps,
+                "down_rate_bps": spec.down_bps, "queue_s": spec.queue_s,
+                "burst_bytes": spec.burst_bytes}
+    return {"kind": options.channel_kind, **asdict(spec)}
 
 
 def system_entry(rate_hz: float, channel: dict[str, object] | None, mean: dict[str, Number],

@@ -35,7 +35,7 @@ from wiswarm_zenoh.options import (
     show_written,
     writable_dir,
 )
-from wiswarm_zenoh.testbed import best_of_grid, share_fps
+from wiswarm_zenoh.testbed import ChannelSpec, best_of_grid, share_fps
 
 SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
 COLUMNS = ("system", "n", "rate_hz", "mean_tracking_error_m", "p95_tracking_error_m",
@@ -79,7 +79,7 @@ def run_study(study: TrackingStudy, ns: list[int], rates: tuple[float, ...],
               fixed_rate: float) -> None:
     """Every N: WiSwarm, push at ``fixed_rate``, push at its best rate by tracking error."""
     channel = study.base.channel
-    assert channel is not None
+    assert isinstance(channel, ChannelSpec)  # the study builds a tbf channel
     frame_bytes = study.base.frame_px ** 2
     for n in ns:
         study.run("wiswarm", n, demo.DEFAULT_RATE["wiswarm"], "wiswarm")

@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 from pathlib import Path
 
 import pytest
 
 from apps.tracking.cli import add_demo_arguments, options_from, run_demo
+from apps.tracking.demo import DemoOptions
+from apps.tracking.report import channel_entry
 from wiswarm_zenoh.options import OneLineParser, UsageError
+from wiswarm_zenoh.testbed import WifiSpec
 
 
 def parse(*argv: str) -> argparse.Namespace:
@@ -36,6 +40,17 @@ def test_the_default_channel_is_20_mbit_in_user_space() -> None:
     assert tbf.dashboard_port is None  # it would listen inside a namespace
 
 
+def test_channel_wifi_makes_each_uav_a_station_of_the_medium() -> None:
+    wifi = options_from(parse("--channel", "wifi"))
+    assert isinstance(wifi.channel, WifiSpec) and wifi.channel_kind == "wifi"
+    assert wifi.namespaces and wifi.dashboard_port is None  # root; inside a namespace
+    assert channel_entry(wifi) == {"kind": "wifi", **dataclasses.asdict(WifiSpec())}
+    with pytest.raises(ValueError, match="dashboard cannot run with --channel wifi"):
+        DemoOptions(channel=WifiSpec(), channel_kind="wifi")
+    with pytest.raises(ValueError, match="the wifi channel kind goes with a WifiSpec"):
+        DemoOptions(channel=WifiSpec(), channel_kind="tbf", dashboard_port=None)
+
+
 @pytest.mark.parametrize(("argv", "words"), [
     (("--uavs", "51"), "uavs must be in [1, 50]"),
     (("--duration", "0.5"), "duration must be in"),
@@ -52,7 +67,8 @@ def test_bad_values_are_usage_errors(argv: tuple[str, ...], words: str) -> None:
     (("--uavs", "0"), "--uavs: must be >= 1"),
     (("--duration", "nan"), "--duration: expected a finite number"),
     (("--rate", "-5"), "--rate: must be > 0"),
-    (("--channel", "20mbit"), "'20mbit' is not one of user, tbf, none (a rate goes in "
+    (("--channel", "20mbit"), "'20mbit' is not one of user, tbf, wifi, none (a rate goes "
+                              "in "
                               "--channel-rate)"),
     (("--channel-rate", "fast"), "rate 'fast' is not a rate"),
 ])

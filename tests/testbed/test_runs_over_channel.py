@@ -18,7 +18,7 @@ import pytest
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, list_channels
 from wiswarm_zenoh.testbed import run as run_module
 from wiswarm_zenoh.testbed.nodes import Placement
-from wiswarm_zenoh.testbed.run import RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure
 from wiswarm_zenoh.testbed.study import measure_fresh
 from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
@@ -126,10 +126,11 @@ def _fails_when_stopped(stop: StopSignal, ready: ReadySignal) -> None:
 
 
 def _nodes_failing_at_stop(children: Children, place: Placement, spec: RunSpec,
-                           record: Path) -> None:
+                           record: Path, groups: list[Group]) -> None:
     for name in ("router", "leader"):
         children.start(name, _idle)
-    children.start("followers", _fails_when_stopped)
+    for name, _, _ in groups:  # on the tbf channel: one, "followers"
+        children.start(name, _fails_when_stopped)
 
 
 def test_a_process_that_ends_with_an_error_when_stopped_is_reported(

@@ -57,6 +57,11 @@ def _one_line_error(capsys: pytest.CaptureFixture[str], argv: Sequence[str]) -> 
     ["testbed", "set", "--rate", "-5mbit"],
     ["testbed", "set"],
     ["testbed", "sideways"],
+    ["testbed", "up", "--medium", "radio"],
+    ["testbed", "up", "--medium", "wifi", "--stations", "0"],
+    ["testbed", "up", "--medium", "wifi", "--stations", "many"],
+    ["testbed", "up", "--medium", "wifi", "--standard", "80211b"],
+    ["testbed", "up", "--medium", "wifi", "--hard-limit", "0"],
 ])
 def test_bad_input_is_one_line_and_exit_2(capsys: pytest.CaptureFixture[str],
                                           argv: list[str]) -> None:
@@ -133,12 +138,14 @@ def test_up_refuses_a_name_in_use(capsys: pytest.CaptureFixture[str]) -> None:
 @needs_root
 def test_set_and_down_without_an_id(capsys: pytest.CaptureFixture[str],
                                     monkeypatch: pytest.MonkeyPatch) -> None:
-    """Other channels may exist on this machine (other runs): the CLI is shown only ours,
-    so that `down` without an id, which removes every channel, removes only ours."""
+    """Other channels and WiFi media may exist on this machine (other runs): the CLI is
+    shown only ours, so that `down` without an id, which removes every one, removes only
+    ours."""
     channel = Channel(name=f"all{os.getpid():x}").build(persistent=True)
     try:
         shown = [channel.run_id]
         monkeypatch.setattr(cli, "list_channels", lambda: list(shown))
+        monkeypatch.setattr(cli, "list_media", list)  # no WiFi media: others' are not ours
         assert _main(["testbed", "set", "--rate", "2mbit"]) == 0
         assert Channel.attach(channel.run_id).spec.rate_bps == 2_000_000
         shown.append("other")

@@ -21,6 +21,7 @@ from wiswarm_zenoh.options import (
     ProgressBar,
     UsageError,
     add_channel_arguments,
+    add_medium_arguments,
     add_rate_grid,
     channel_spec,
     finite_float,
@@ -30,6 +31,7 @@ from wiswarm_zenoh.options import (
     positive_int,
     require_testbed,
     show_written,
+    wifi_spec,
     writable_dir,
 )
 from wiswarm_zenoh.sim.sweep import PAPER_NS
@@ -63,7 +65,8 @@ def _study_config(args: argparse.Namespace) -> StudyConfig:
             ns=args.ns, baselines=args.baselines,
             rates=args.rates, fixed_rate=args.fixed_rate, batches=args.batches,
             duration=args.duration, warmup=args.warmup, frame_bytes=args.frame_bytes,
-            channel=channel_spec(args), parallel=args.parallel,
+            channel=channel_spec(args), medium=wifi_spec(args, max(args.ns)),
+            parallel=args.parallel or (1 if args.medium == "wifi" else 2),
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from None
@@ -75,8 +78,10 @@ def _testbed(args: argparse.Namespace) -> int:
     out: Path = args.out or Path("runs") / time.strftime("testbed-%Y%m%d-%H%M%S")
     (out / "records").mkdir(parents=True, exist_ok=True)
     ch = config.channel
-    print(f"testbed: {config.parallel} channel(s) of {format_rate(ch.rate_bps)} up / "
-          f"{format_rate(ch.down_bps)} down, {ch.queue_s * 1e3:g} ms queue; N in "
+    media = (f"channel(s) of {format_rate(ch.rate_bps)} up / {format_rate(ch.down_bps)} "
+             f"down, {ch.queue_s * 1e3:g} ms queue" if config.medium is None else
+             f"WiFi medium(s), {config.medium.describe()}")
+    print(f"testbed: {config.parallel} {media}; N in "
           f"{', '.join(map(str, config.ns))}; about {config.estimated_runs} runs of "
           f"{config.warmup + config.duration:g} s; output in {out}", file=sys.stderr)
     bar = ProgressBar("testbed")
@@ -92,7 +97,8 @@ def register_testbed(studies: Any) -> None:
     testbed = studies.add_parser(
         "testbed", help="the stationary study on real processes over an emulated channel",
         description="WiSwarm against the push baselines (Zenoh put, UDP, TCP) over a tbf-"
-        "shaped channel between network namespaces (Linux, root): for each N, WiSwarm, each "
+        "shaped channel between network namespaces, or ns-3's WiFi (--medium wifi) (Linux, "
+        "root): for each N, WiSwarm, each "
         "baseline at --fixed-rate and at its best rate of --rates (found by a search). "
         "Writes CSVs, figures with the simulator's model of the channel beside, gains.md.")
     testbed.add_argument("--ns", type=COUNTS, default=PAPER_NS,
@@ -109,10 +115,12 @@ def register_testbed(studies: Any) -> None:
                          help="seconds before each run's window opens (default 5)")
     testbed.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                          help=f"bytes per camera frame (default {FRAME_BYTES} = 224x224)")
-    testbed.add_argument("--parallel", type=positive_int(), default=2,
-                         help="runs at once, each on a channel of its own (default 2)")
+    testbed.add_argument("--parallel", type=positive_int(),
+                         help="runs at once, each on a channel of its own (default 2; 1 for "
+                              "the WiFi medium, whose real time needs a core)")
     testbed.add_argument("--out", type=writable_dir(), metavar="DIR",
                          help="output directory (runs/testbed-<timestamp>)")
     add_channel_arguments(testbed)
+    add_medium_arguments(testbed, stations=False)
     add_live_arguments(testbed)
     testbed.set_defaults(func=_testbed)

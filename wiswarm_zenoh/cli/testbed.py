@@ -1,8 +1,9 @@
 """``wiswarm testbed up|down|status|set``: the emulated shared channel by hand (Linux, root).
 
 ``up`` builds a persistent channel (two network namespaces, a veth pair, tbf on both
-ends) and says how to start nodes inside it; ``set`` changes its rate mid-run,
-``status`` shows what crossed it, ``down`` removes it.
+ends; or with ``--medium wifi``, ns-3's 802.11 with a station per follower) and says how
+to start nodes inside it; ``set`` changes a tbf channel's rate mid-run, ``status`` shows
+what crossed it, ``down`` removes it.
 """
 
 from __future__ import annotations
@@ -15,9 +16,11 @@ from wiswarm_zenoh.options import (
     OneLineParser,
     UsageError,
     add_channel_arguments,
+    add_medium_arguments,
     add_rates,
     channel_spec,
     require_testbed,
+    wifi_spec,
 )
 from wiswarm_zenoh.testbed import (
     Channel,
@@ -26,25 +29,51 @@ from wiswarm_zenoh.testbed import (
     remove_channel,
 )
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
+from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
+from wiswarm_zenoh.testbed.wifi import (
+    MediumStats,
+    WifiMedium,
+    WifiSpec,
+    list_media,
+    remove_medium,
+)
 from wiswarm_zenoh.units import format_rate
 
 
-def _how_to_run(channel: Channel) -> str:
+def _how_to_run(leader_ns: str, leader_addr: str, follower_ns: str, where: str,
+                *after: str) -> str:
     """Commands that start a router, a leader and a follower on their sides."""
-    endpoint = f"tcp/{channel.leader_addr}:{ROUTER_PORT}"
+    endpoint = f"tcp/{leader_addr}:{ROUTER_PORT}"
     cfg = f"--cfg '{NO_SHARED_MEMORY}'"
     return "\n".join((
-        "run nodes inside it (shared memory off, or frames would not cross the link):",
-        f"  ip netns exec {channel.leader_ns} wiswarm router -l {endpoint} {cfg}",
-        f"  ip netns exec {channel.leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
-        f"  ip netns exec {channel.follower_ns} wiswarm follower --swarm s1 --id uav1 "
+        f"run nodes inside it ({where}):",
+        f"  ip netns exec {leader_ns} wiswarm router -l {endpoint} {cfg}",
+        f"  ip netns exec {leader_ns} wiswarm leader --swarm s1 -e {endpoint} {cfg}",
+        f"  ip netns exec {follower_ns} wiswarm follower --swarm s1 --id uav1 "
         f"-m client -e {endpoint} {cfg}",
-        f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
-        f"remove it:       wiswarm testbed down {channel.run_id}",
+        *after,
     ))
 
 
+def _up_wifi(args: argparse.Namespace, spec: WifiSpec) -> int:
+    medium = WifiMedium(spec, name=args.name)
+    try:
+        medium.build(persistent=True)
+    except (ValueError, Ns3Unavailable) as exc:
+        raise UsageError(str(exc)) from None
+    print(medium.describe())
+    print(_how_to_run(medium.leader_ns, medium.leader_addr, medium.station_namespaces[0],
+                      "one follower per station namespace; shared memory off",
+                      f"remove it:       wiswarm testbed down {medium.run_id}"))
+    print(f"run id: {medium.run_id}")
+    return 0
+
+
 def _up(args: argparse.Namespace) -> int:
+    spec = wifi_spec(args, args.stations)
+    if spec is not None:
+        require_testbed()
+        return _up_wifi(args, spec)
     channel = Channel(channel_spec(args), name=args.name)
     require_testbed()
     try:
@@ -52,29 +81,38 @@ def _up(args: argparse.Namespace) -> int:
     except ValueError as exc:  # the name is taken
         raise UsageError(str(exc)) from None
     print(channel.describe())
-    print(_how_to_run(channel))
+    print(_how_to_run(channel.leader_ns, channel.leader_addr, channel.follower_ns,
+                      "shared memory off, or frames would not cross the link",
+                      f"change its rate: wiswarm testbed set --rate 5mbit {channel.run_id}",
+                      f"remove it:       wiswarm testbed down {channel.run_id}"))
     print(f"run id: {channel.run_id}")
     return 0
 
 
 def _down(args: argparse.Namespace) -> int:
     require_testbed()
+    kinds = (("testbed channel", list_channels, remove_channel),
+             ("WiFi medium", list_media, remove_medium))
     if args.run_id is not None:
-        try:
-            remove_channel(args.run_id)
-        except LookupError:
-            raise UsageError(f"no testbed channel {args.run_id!r} (present: "
-                             f"{', '.join(list_channels()) or 'none'})") from None
-        print(f"removed testbed channel {args.run_id}")
-        return 0
+        for kind, _, remove in kinds:
+            try:
+                remove(args.run_id)
+            except LookupError:
+                continue
+            print(f"removed {kind} {args.run_id}")
+            return 0
+        present = [*list_channels(), *list_media()]
+        raise UsageError(f"no testbed channel or WiFi medium {args.run_id!r} (present: "
+                         f"{', '.join(present) or 'none'})")
     removed = 0
-    for run_id in list_channels():
-        try:
-            remove_channel(run_id)
-        except LookupError:
-            continue  # its owner removed it meanwhile
-        print(f"removed testbed channel {run_id}")
-        removed += 1
+    for kind, present_ids, remove in kinds:
+        for run_id in present_ids():
+            try:
+                remove(run_id)
+            except LookupError:
+                continue  # its owner removed it meanwhile
+            print(f"removed {kind} {run_id}")
+            removed += 1
     if not removed:
         print("no testbed channels to remove")
     return 0
@@ -86,9 +124,29 @@ def _counters(label: str, rate_bps: int, counters: LinkCounters) -> str:
             f"{counters.backlog_bytes} bytes")
 
 
+def _medium_counters(stats: MediumStats) -> str:
+    def total(name: str) -> int:
+        return int(stats.total(name))
+
+    return (f"  air: {total('acked')} frames acknowledged, {total('nacked')} failed "
+            f"transmissions (collisions, retried), {total('drop_retry')} dropped at the "
+            f"retry limit, {total('drop_queue')} refused by full queues, airtime "
+            f"{stats.total('tx_airtime_s'):.1f} s over {stats.t:.0f} s")
+
+
 def _status(args: argparse.Namespace) -> int:
     require_testbed()
     shown = 0
+    for run_id in list_media():
+        try:
+            medium = WifiMedium.attach(run_id)
+        except LookupError:
+            continue  # removed meanwhile
+        if shown:
+            print()
+        print(medium.describe())
+        print(_medium_counters(medium.stats()))
+        shown += 1
     for run_id in list_channels():
         try:
             channel = Channel.attach(run_id)
@@ -150,6 +208,7 @@ def register(subparsers: Any) -> None:
                     "namespace joined by a veth pair, each end's egress shaped by tc tbf. "
                     "Prints what it built, how to start nodes in it, and its run id.")
     add_channel_arguments(up)
+    add_medium_arguments(up, stations=True)
     up.add_argument("--name", type=RUN_ID,
                     help="the run id to use: 1-24 letters, digits, '-' or '_' (default: "
                     "made up, printed)")

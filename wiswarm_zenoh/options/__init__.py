@@ -33,10 +33,12 @@ from wiswarm_zenoh.options.ros2 import UPDATE_ADAPTER, add_ros2_arguments, ros2_
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
+    add_medium_arguments,
     add_rates,
     channel_spec,
     parse_size,
     require_testbed,
+    wifi_spec,
 )
 from wiswarm_zenoh.units import format_rate
 from wiswarm_zenoh.usage import OneLineParser, UsageError
@@ -58,6 +60,7 @@ __all__ = [
     "ProgressBar",
     "UsageError",
     "add_channel_arguments",
+    "add_medium_arguments",
     "add_rate_grid",
     "add_rates",
     "add_ros2_arguments",
@@ -78,6 +81,7 @@ __all__ = [
     "require_testbed",
     "ros2_options",
     "show_written",
+    "wifi_spec",
     "writable_dir",
     "writable_file",
 ]

@@ -7,8 +7,9 @@ from __future__ import annotations
 import argparse
 import re
 
-from wiswarm_zenoh.options.arguments import RATE, TIME, ArgType
+from wiswarm_zenoh.options.arguments import RATE, TIME, ArgType, positive_int
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, TestbedUnavailable, check_available
+from wiswarm_zenoh.testbed.wifi import MAX_STATIONS, STANDARDS, WifiSpec
 from wiswarm_zenoh.usage import UsageError
 
 _SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)
@@ -73,3 +74,50 @@ def add_channel_arguments(parser: argparse.ArgumentParser) -> None:
                         metavar="SIZE", help="the token bucket's size: bytes sent back to back "
                         "at line speed after a pause, at least one MTU packet, e.g. 32kb; "
                         "default 32kb")
+
+
+def _wifi_mode(text: str) -> str:
+    """An ns-3 WifiMode this project knows the rate of (WifiSpec's own check)."""
+    if not text:
+        raise ValueError("data rate '': use ErpOfdmRate<R>Mbps (802.11g) or HtMcs0..HtMcs7 "
+                         "(802.11n)")
+    standard = "80211n" if text.startswith("Ht") else "80211g"
+    WifiSpec(standard=standard, data_mode=text)
+    return text
+
+
+WIFI_MODE = ArgType("data rate", _wifi_mode)
+
+
+def add_medium_arguments(parser: argparse.ArgumentParser, stations: bool) -> None:
+    """--medium tbf|wifi and the WiFi medium's shape (``wifi_spec``); ``stations``: a
+    --stations flag too (a study takes its stations from its largest N)."""
+    parser.add_argument("--medium", choices=("tbf", "wifi"), default="tbf",
+                        help="tbf: a shaped FIFO link (default); wifi: ns-3's 802.11 at "
+                             "2.4 GHz in real time, an access point for the leader side "
+                             "and a station per follower")
+    if stations:
+        parser.add_argument("--stations", type=positive_int(MAX_STATIONS), default=4,
+                            metavar="N",
+                            help=f"wifi: stations, one per follower (1-{MAX_STATIONS}); "
+                                 "default 4")
+    parser.add_argument("--standard", choices=STANDARDS, default="80211g",
+                        help="wifi: the 802.11 standard; default 80211g")
+    parser.add_argument("--data-rate", type=WIFI_MODE, metavar="MODE",
+                        help="wifi: the data rate, an ns-3 WifiMode (ErpOfdmRate24Mbps, "
+                             "HtMcs7); default the standard's: 24 Mbit/s for g, MCS 7 for n")
+    parser.add_argument("--hard-limit", type=TIME, default=0.1, metavar="TIME",
+                        help="wifi: the largest lag of the simulation behind real time "
+                             "before the run fails loudly; default 100ms")
+
+
+def wifi_spec(args: argparse.Namespace, stations: int) -> WifiSpec | None:
+    """The WiFi medium ``add_medium_arguments``' flags describe, None for tbf
+    (UsageError if bad)."""
+    if args.medium != "wifi":
+        return None
+    try:
+        return WifiSpec(stations=stations, standard=args.standard, data_mode=args.data_rate,
+                        hard_limit_ms=args.hard_limit * 1e3)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None

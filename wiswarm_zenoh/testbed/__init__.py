@@ -1,7 +1,8 @@
 """The emulated shared channel (Linux, root): network namespaces joined by a veth pair
 shaped by ``tc tbf``, so real processes contend for one bottleneck like a swarm's air;
-and the same shape without root (``UserChannel``: a relay on loopback with one token
-bucket and FIFO per direction).
+or the WiFi medium, ns-3's 802.11 with a station per follower; and the tbf channel's
+shape without root (``UserChannel``: a relay on loopback with one token bucket and FIFO
+per direction).
 """
 
 from wiswarm_zenoh.testbed.channel import (
@@ -21,6 +22,7 @@ from wiswarm_zenoh.testbed.spec import (
 )
 from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
 from wiswarm_zenoh.testbed.user_channel import UserChannel, run_link
+from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 
 __all__ = [
     "Channel",
@@ -29,6 +31,8 @@ __all__ = [
     "Placement",
     "TestbedUnavailable",
     "UserChannel",
+    "WifiMedium",
+    "WifiSpec",
     "best_of_grid",
     "check_available",
     "cleanup_leftovers",

@@ -23,7 +23,12 @@ from pathlib import Path
 from types import TracebackType
 
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
-from wiswarm_zenoh.testbed.ownership import locked, namespace_exists, process_start
+from wiswarm_zenoh.testbed.ownership import (
+    locked,
+    namespace_exists,
+    process_start,
+    remove_orphans,
+)
 from wiswarm_zenoh.testbed.spec import (
     DEFAULT_SPEC,
     MTU,
@@ -144,20 +149,13 @@ def remove_channel(run_id: str) -> None:
 
 
 def _cleanup_locked() -> list[str]:
-    removed: list[str] = []
     present = set(list_channels())
     recorded = {path.stem for path in STATE_DIR.glob("*.json")}
-    for run_id in sorted(present | recorded):
-        record = _Record.load(run_id)
-        if run_id not in present:
-            _record_path(run_id).unlink(missing_ok=True)  # removed behind its owner's back
-        elif record is None or not _owned_by_live_process(record):
-            _remove_locked(run_id)
-            owner = "unknown: no record" if record is None else f"pid {record.owner_pid}"
-            log.warning("removed leftover testbed channel %s (its process, %s, is gone)",
-                        run_id, owner)
-            removed.append(run_id)
-    return removed
+    for run_id in sorted(recorded - present):
+        _record_path(run_id).unlink(missing_ok=True)  # removed behind its owner's back
+    return remove_orphans("testbed channel", sorted(present), _Record.load,
+                          _owned_by_live_process, lambda record: record.owner_pid,
+                          lambda run_id, _: _remove_locked(run_id))
 
 
 def cleanup_leftovers() -> list[str]:

@@ -7,10 +7,15 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-from collections.abc import Iterator
+import logging
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
+from typing import TypeVar
 
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
+
+log = logging.getLogger(__name__)
+R = TypeVar("R")
 
 
 def process_start(pid: int) -> int | None:
@@ -35,3 +40,20 @@ def locked(directory: Path) -> Iterator[None]:
 
 def namespace_exists(ns: str) -> bool:
     return (NETNS_DIR / ns).exists()
+
+
+def remove_orphans(kind: str, run_ids: Iterable[str], load: Callable[[str], R | None],
+                   owned: Callable[[R], bool], owner: Callable[[R], int],
+                   remove: Callable[[str, R | None], object]) -> list[str]:
+    """Remove what each run id names unless its record says a live process owns it
+    (a missing record: nobody does); logs each (WARNING) and returns their ids."""
+    removed = []
+    for run_id in run_ids:
+        record = load(run_id)
+        if record is not None and owned(record):
+            continue
+        remove(run_id, record)
+        who = "unknown: no record" if record is None else f"pid {owner(record)}"
+        log.warning("removed leftover %s %s (its process, %s, is gone)", kind, run_id, who)
+        removed.append(run_id)
+    return removed

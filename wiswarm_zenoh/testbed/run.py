@@ -3,12 +3,14 @@
 The leader side (router + polling leader or baseline receiver) starts in the channel's
 leader namespace, the N followers in one host process in the follower namespace (each
 with a session or socket of its own: the frames still cross the channel; one process
-spares the CPU that N would cost). After a warm-up, AoI is measured over the window
-from the receiver's record of every delivery, with the generation time each frame
-carries (ground truth: every process reads the same host clock), identically for every
-system. The run is supervised: a process that dies is logged with the time and its exit
-code and started again, one that ends by an error when the run stops is noted too, and a
-rate changed on the channel (``wiswarm testbed set``) is noted when seen.
+spares the CPU that N would cost). On the WiFi medium each follower is a station of its
+own, so each runs in its station's namespace, a process per station. After a warm-up,
+AoI is measured over the window from the receiver's record of every delivery, with the
+generation time each frame carries (ground truth: every process reads the same host
+clock), identically for every system. The run is supervised: a process that dies is
+logged with the time and its exit code and started again, one that ends by an error when
+the run stops is noted too, and a rate changed on the channel (``wiswarm testbed set``)
+is noted when seen; the WiFi medium falling behind real time fails it.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.reassembly import reassembly
+from wiswarm_zenoh.testbed.wifi import WifiMedium, window_counters
 from wiswarm_zenoh.transport.demo import Children
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 from wiswarm_zenoh.transport.runners import (
@@ -169,7 +172,24 @@ def poll_counters(record: Path) -> dict[str, float]:
             "in_flight": float(last["leader"]["in_flight"])}
 
 
-def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Path) -> None:
+Medium = Channel | WifiMedium
+Group = tuple[str, str, list[int]]  # child name, namespace, follower indices
+
+
+def follower_groups(medium: Medium, n: int) -> list[Group]:
+    """Where the followers run: all in the follower namespace of a tbf channel, each in
+    its own station's namespace on the WiFi medium (ValueError if N exceeds them)."""
+    if isinstance(medium, Channel):
+        return [("followers", medium.follower_ns, list(range(n)))]
+    stations = medium.station_namespaces
+    if n > len(stations):
+        raise ValueError(f"{n} followers need {n} stations; the WiFi medium has "
+                         f"{len(stations)}")
+    return [(f"followers{i}", ns, [i]) for i, ns in enumerate(stations[:n])]
+
+
+def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Path,
+                 groups: list[Group]) -> None:
     """Router and receiver on the leader side, then the followers across the channel."""
     children.start("router", run_in, place.leader_ns, run_router, place.router())
     followers = spec.followers
@@ -181,16 +201,21 @@ def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Pa
         options = [FollowerOptions(SWARM, f, frame_bytes=spec.frame_bytes,
                                    frame_rate=spec.camera_rate(i))
                    for i, f in enumerate(followers)]
-        children.start("followers", run_in, place.follower_ns, run_followers,
-                       place.follower(), options)
+        for name, ns, indices in groups:
+            children.start(name, run_in, ns, run_followers, place.follower(),
+                           [options[i] for i in indices], wait=False)
+        children.wait_ready()
         return
     kind, _, congestion = spec.system.partition("-")
     children.start("leader", run_in, place.leader_ns, run_receiver, place.leader(),
                    ReceiverOptions(SWARM, kind, bind=place.socket_receiver, record=str(record)))
-    children.start("followers", run_in, place.follower_ns, run_baseline_followers,
-                   place.follower(), BaselineFollowerOptions(
-                       SWARM, tuple(followers), kind, spec.rate, congestion or "block",
-                       spec.frame_bytes, receiver=place.socket_receiver))
+    for name, ns, indices in groups:
+        children.start(name, run_in, ns, run_baseline_followers, place.follower(),
+                       BaselineFollowerOptions(
+                           SWARM, tuple(followers[i] for i in indices), kind, spec.rate,
+                           congestion or "block", spec.frame_bytes,
+                           receiver=place.socket_receiver), wait=False)
+    children.wait_ready()
 
 
 class _Children(Children):
@@ -233,13 +258,67 @@ class _Watch:
             self._rates = rates
 
 
-def measure(channel: Channel, spec: RunSpec, workdir: Path,
+class _MediumWatch:
+    """Samples the WiFi medium during a run: fails the run loudly (MediumFailed) once the
+    simulation fell behind real time beyond its hard limit, and keeps its counters."""
+
+    def __init__(self, medium: WifiMedium) -> None:
+        self._medium = medium
+        self.first = medium.stats()
+        self.last = self.first
+
+    def open(self) -> None:
+        self.first = self._medium.stats()
+
+    def sample(self) -> None:
+        self._medium.check()
+        self.last = self._medium.stats()
+
+    def counters(self, span: float) -> dict[str, float]:
+        return window_counters(self.first, self.last, span)
+
+
+class _LinkWatch:
+    """The tbf channel's counters over the window, and its rate (noting changes)."""
+
+    def __init__(self, channel: Channel, started: float, events: list[str]) -> None:
+        self._channel = channel
+        self._watch = _Watch(channel, started, events)
+        self._first = (channel.uplink(), channel.downlink())
+        self._last = self._first
+
+    def open(self) -> None:
+        self._first = (self._channel.uplink(), self._channel.downlink())
+
+    def sample(self) -> None:
+        self._watch.sample()
+        self._last = (self._channel.uplink(), self._channel.downlink())
+
+    def counters(self, span: float) -> dict[str, float]:
+        (up0, down0), (up1, down1) = self._first, self._last
+
+        def per_s(before: int, after: int) -> float:
+            return (after - before) / span if span > 0 else 0.0
+
+        backlog = self._watch.backlog
+        return {
+            "uplink_mbps": per_s(up0.sent_bytes, up1.sent_bytes) * 8 / 1e6,
+            "downlink_mbps": per_s(down0.sent_bytes, down1.sent_bytes) * 8 / 1e6,
+            "uplink_drops": float(up1.dropped - up0.dropped),
+            "downlink_drops": float(down1.dropped - down0.dropped),
+            "uplink_backlog_kb": sum(backlog) / len(backlog) / 1e3 if backlog else 0.0,
+        }
+
+
+def measure(channel: Medium, spec: RunSpec, workdir: Path,
             stop: threading.Event | None = None,
             on_tick: Callable[[float], None] | None = None) -> RunOutcome:
-    """Run ``spec`` over ``channel``; ``stop`` ends the window early (the run is then
-    reported over what it measured); ``on_tick(fraction done)`` as it goes."""
+    """Run ``spec`` over ``channel`` (a tbf channel or the WiFi medium); ``stop`` ends
+    the window early (the run is then reported over what it measured); ``on_tick(fraction
+    done)`` as it goes. On the WiFi medium, MediumFailed if real time was not held."""
     stop = stop or threading.Event()
-    place = Placement(channel.leader_ns, channel.follower_ns, channel.leader_addr)
+    groups = follower_groups(channel, spec.n)
+    place = Placement(channel.leader_ns, groups[0][1], channel.leader_addr)
     record = workdir / f"{spec.label}-n{spec.n}-b{spec.batch}.csv"
     events: list[str] = []
     reasm0 = reassembly(channel.leader_ns)
@@ -247,15 +326,16 @@ def measure(channel: Channel, spec: RunSpec, workdir: Path,
         events.append(f"t=0.0s: the leader side held {reasm0.held} incomplete datagrams "
                       f"({reasm0.held_bytes} B) at the start: UDP may lose frames to them")
         log.warning("%s", events[-1])
-    names = ("router", "leader", "followers")
+    names = ("router", "leader", *(group[0] for group in groups))
     children = _Children(multiprocessing.get_context("spawn"))
     with children:
-        _start_nodes(children, place, spec, record)
+        _start_nodes(children, place, spec, record, groups)
         started = time.time()
         t0 = started + spec.warmup
         t1 = t0 + spec.duration
-        watch = _Watch(channel, started, events)
-        up0, down0 = channel.uplink(), channel.downlink()  # again when the window opens
+        watch: _LinkWatch | _MediumWatch = (
+            _LinkWatch(channel, started, events) if isinstance(channel, Channel)
+            else _MediumWatch(channel))
         opened = False
         while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
             for name in names:
@@ -265,13 +345,13 @@ def measure(channel: Channel, spec: RunSpec, workdir: Path,
                     children.restart(name)
             if time.time() >= t0:
                 if not opened:
-                    up0, down0, opened = channel.uplink(), channel.downlink(), True
-                    reasm0 = reassembly(channel.leader_ns)
+                    watch.open()
+                    reasm0, opened = reassembly(channel.leader_ns), True
                 watch.sample()
             if on_tick is not None:
                 on_tick(min(1.0, (time.time() - started) / (t1 - started)))
         end = min(time.time(), t1)
-        up1, down1 = channel.uplink(), channel.downlink()
+        watch.sample()
         reasm1 = reassembly(channel.leader_ns)
     stopped = time.time() - started
     events += [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
@@ -280,20 +360,7 @@ def measure(channel: Channel, spec: RunSpec, workdir: Path,
     span = max(0.0, end - t0)
     metrics = window_metrics(read_record(record), spec.followers, started, t0,
                              max(end, t0), spec.frame_bytes)
-
-    def per_s(before: int, after: int) -> float:
-        return (after - before) / span if span > 0 else 0.0
-
-    counters = {
-        "uplink_mbps": per_s(up0.sent_bytes, up1.sent_bytes) * 8 / 1e6,
-        "downlink_mbps": per_s(down0.sent_bytes, down1.sent_bytes) * 8 / 1e6,
-        "uplink_drops": float(up1.dropped - up0.dropped),
-        "downlink_drops": float(down1.dropped - down0.dropped),
-        "uplink_backlog_kb": (sum(watch.backlog) / len(watch.backlog) / 1e3
-                              if watch.backlog else 0.0),
-        **reasm1.since(reasm0),
-        **poll_counters(record),
-    }
+    counters = {**watch.counters(span), **reasm1.since(reasm0), **poll_counters(record)}
     result = WifiResult(system=spec.system, n=spec.n,
                         rate=None if spec.system == "wiswarm" else spec.rate,
                         frame_bytes=spec.frame_bytes, duration=span, seed=spec.batch,

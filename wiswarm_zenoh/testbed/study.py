@@ -9,28 +9,41 @@ below that share (link rate / (N x frame bits)), measures the next rate up, and 
 towards the better side until a rate is worse than the one before it: a bracket of
 three neighbours, usually two to four runs instead of ten.
 
+With ``medium`` set, every run goes over ns-3's WiFi medium instead, a station per
+follower (``wifi``), built once per worker with as many stations as the largest N.
+
 Runs go to ``parallel`` workers at once, every run on a channel built for it alone (the
 channels are independent bottlenecks: the shaping is the kernel's, and at 20 Mbit/s per
 channel the CPU is not what limits a run). Fresh namespaces, not one channel per worker:
 runs that share a namespace share its kernel state, and a UDP run at 50 fps leaves the
 reassembly memory full of incomplete datagrams for 30 s, which makes the next run's UDP
-deliver nothing (``reassembly.py``). A run's measurements are kept as they complete, so
-a study cut short by Ctrl-C reports what it measured.
+deliver nothing (``reassembly.py``). The WiFi medium is the exception: its scenario is
+built and started per worker, not per run (a run's start counts the leader side's
+held fragments in its events). A run's measurements are kept as they complete, so a
+study cut short by Ctrl-C reports what it measured.
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import queue
 import threading
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.testbed.channel import Channel
-from wiswarm_zenoh.testbed.run import SYSTEMS, WISWARM_SAMPLE_RATE, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.run import (
+    SYSTEMS,
+    WISWARM_SAMPLE_RATE,
+    RunOutcome,
+    RunSpec,
+    measure,
+)
 from wiswarm_zenoh.testbed.spec import ChannelSpec
+from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
 log = logging.getLogger(__name__)
@@ -60,6 +73,7 @@ class StudyConfig:
     frame_bytes: int = FRAME_BYTES
     channel: ChannelSpec = field(default_factory=ChannelSpec)
     parallel: int = 1
+    medium: WifiSpec | None = None  # None: the tbf channel
 
     def __post_init__(self) -> None:
         check_study(self.ns, self.rates, self.batches)
@@ -77,7 +91,15 @@ class StudyConfig:
 
     def share_fps(self, n: int) -> float:
         """Frames per second per follower that the uplink carries when N share it."""
-        return share_fps(self.channel.rate_bps, n, self.frame_bytes)
+        rate = self.channel.rate_bps if self.medium is None else self.medium.capacity_bps
+        return share_fps(rate, n, self.frame_bytes)
+
+    def build_medium(self) -> WifiMedium:
+        """A worker's WiFi medium, with a station for the largest N (the tbf channel is
+        built per run instead: ``measure_fresh``)."""
+        if self.medium is None:
+            raise ValueError("no WiFi medium: the tbf channel is built per run")
+        return WifiMedium(replace(self.medium, stations=max(self.ns)))
 
     @property
     def estimated_runs(self) -> int:
@@ -165,7 +187,7 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
     """Run every job of the plan on ``config.parallel`` channels; returns what was
     measured, also when Ctrl-C or ``stop`` ends it midway (``interrupted``; the runs in
     progress are kept, over the window they measured). Each run's channel is removed
-    when the run ends."""
+    when the run ends; a worker's WiFi medium when the worker ends."""
     stop = stop or threading.Event()
     results = StudyResults()
     jobs: queue.SimpleQueue[Job] = queue.SimpleQueue()
@@ -174,36 +196,42 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
     completed = [0]
     failures: list[BaseException] = []
 
-    def run(spec: RunSpec) -> RunOutcome:
-        if stop.is_set():
-            raise _Stopped
-        outcome = measure_fresh(config.channel, spec, workdir, stop)
-        if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
-            raise _Stopped
-        results.add(outcome)
-        with results.lock:
-            completed[0] += 1
-            progress(completed[0], max(config.estimated_runs, completed[0]))
-        for event in outcome.events:
-            log.warning("%s N=%d: %s", spec.label, spec.n, event)
-        if not outcome.complete:
-            raise _Stopped
-        return outcome
+    def run_on(medium: WifiMedium | None) -> Measure:
+        def run(spec: RunSpec) -> RunOutcome:
+            if stop.is_set():
+                raise _Stopped
+            outcome = (measure_fresh(config.channel, spec, workdir, stop) if medium is None
+                       else measure(medium, spec, workdir, stop))
+            if outcome.result.duration <= 0:  # cut before its window opened: nothing to keep
+                raise _Stopped
+            results.add(outcome)
+            with results.lock:
+                completed[0] += 1
+                progress(completed[0], max(config.estimated_runs, completed[0]))
+            for event in outcome.events:
+                log.warning("%s N=%d: %s", spec.label, spec.n, event)
+            if not outcome.complete:
+                raise _Stopped
+            return outcome
+        return run
 
     def worker(done: threading.Event) -> None:
         try:
-            while not stop.is_set():
-                try:
-                    job = jobs.get_nowait()
-                except queue.Empty:
-                    return
-                if job.search:
-                    best = best_rate(config, job, run)
-                    with results.lock:
-                        results.best[(job.system, job.n, job.batch)] = best
-                else:
-                    rate = None if job.system == "wiswarm" else config.fixed_rate
-                    run(config.spec(job.system, job.n, rate, job.batch))
+            with contextlib.ExitStack() as stack:
+                run = run_on(None if config.medium is None
+                             else stack.enter_context(config.build_medium()))
+                while not stop.is_set():
+                    try:
+                        job = jobs.get_nowait()
+                    except queue.Empty:
+                        return
+                    if job.search:
+                        best = best_rate(config, job, run)
+                        with results.lock:
+                            results.best[(job.system, job.n, job.batch)] = best
+                    else:
+                        rate = None if job.system == "wiswarm" else config.fixed_rate
+                        run(config.spec(job.system, job.n, rate, job.batch))
         except _Stopped:
             return
         except BaseException as exc:  # reported by the caller, after every worker ended

@@ -50,7 +50,10 @@ def model_points(config: StudyConfig, points: Sequence[Point]) -> list[Point]:
     """The simulator's ``link`` model of the channel, for WiSwarm and for the baselines
     it models, at the rates that were measured (``-opt`` at the rate the search chose),
     each run as long as a measured run (warm-up and window): a push baseline's queue,
-    and so its age, grows with the run's length."""
+    and so its age, grows with the run's length. None for the WiFi medium: ns-3 is the
+    model there (``bench_wifi.py`` sets ours beside it)."""
+    if config.medium is not None:
+        return []
     link = LinkParams(rate_bps=config.channel.rate_bps, down_rate_bps=config.channel.down_bps,
                       queue_s=config.channel.queue_s, burst_bytes=config.channel.burst_bytes)
     modelled: list[Point] = []
@@ -85,6 +88,25 @@ def floor_lines(results: StudyResults) -> list[str]:
         mean = r.mean("mean_aoi_s")
         lines.append(f"| {r.n} | {s * 1e3:.1f} | {floor * 1e3:.0f} | {mean * 1e3:.0f} | "
                      f"{mean / floor:.2f} |")
+    return lines
+
+
+MEDIUM_COLUMNS = (("failed_tx_share", "failed tx share", 1.0, ".3f"),
+                  ("retry_drops", "retry drops", 1.0, ".0f"),
+                  ("queue_drops", "queue drops", 1.0, ".0f"),
+                  ("airtime_share", "airtime", 1.0, ".2f"),
+                  ("max_lag_ms", "largest lag yet (ms)", 1.0, ".1f"))
+
+
+def medium_lines(results: StudyResults) -> list[str]:
+    """The WiFi medium's own counters per run: what the air did with each system."""
+    head = " | ".join(title for _, title, _, _ in MEDIUM_COLUMNS)
+    lines = [f"| run | N | {head} |", "|---|---|" + "---|" * len(MEDIUM_COLUMNS)]
+    for outcome in sorted(results.outcomes, key=lambda o: (o.result.n, label_of(o.result))):
+        r = outcome.result
+        cells = " | ".join(format(r.channel.get(key, 0.0) * scale, spec)
+                           for key, _, scale, spec in MEDIUM_COLUMNS)
+        lines.append(f"| {label_of(r)} | {r.n} | {cells} |")
     return lines
 
 
@@ -123,10 +145,21 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
               if results.interrupted else "")
     events = [f"- {label_of(o.result)} N={o.result.n}: {e}"
               for o in results.outcomes for e in o.events]
+    medium = (f"an emulated channel ({format_rate(ch.rate_bps)} up, "
+              f"{format_rate(ch.down_bps)} down, {ch.queue_s * 1e3:g} ms tbf queue)"
+              if config.medium is None else
+              f"the WiFi medium ({config.medium.describe()}, a station per follower)")
+    air = [] if config.medium is None else [
+        "## The air (ns-3's counters over each run's window)", "",
+        "Failed tx share: transmissions whose acknowledgement never came (collisions, "
+        "errors) among all; retry drops: frames given up after the retry limit; queue "
+        "drops: frames the stations' full MAC queues refused; airtime: every node's "
+        "transmit time over the window (above 1 when transmissions overlap); largest lag: of "
+        "the simulation behind real time, since the medium was built (every run before "
+        "on it included).", "",
+        *medium_lines(results), ""]
     return "\n".join([
-        f"# WiSwarm against push baselines on real processes over an emulated channel "
-        f"({format_rate(ch.rate_bps)} up, {format_rate(ch.down_bps)} down, "
-        f"{ch.queue_s * 1e3:g} ms tbf queue)",
+        f"# WiSwarm against push baselines on real processes over {medium}",
         "",
         f"{status}{config.batches} batch(es) of {config.duration:g} s after a "
         f"{config.warmup:g} s warm-up, {config.frame_bytes} B frames. Gain = baseline / "
@@ -139,6 +172,7 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
         "",
         *floor_lines(results),
         "",
+        *air,
         "## What happened during the runs",
         "",
         *(events or ["- nothing: every process ran to the end and stopped cleanly, the "

@@ -1,0 +1,471 @@
+"""The WiFi medium (``--medium wifi``): one namespace per node on one simulated 2.4 GHz
+802.11 channel, node 0 the access point the leader side sits behind, nodes 1..N stations,
+one per follower, each contending for the air.
+
+Infrastructure mode, not ad hoc: the paper's UAVs reach a ground station through its
+access point, and every station's frames then go to one receiver, as a swarm's uplink
+does. Each namespace holds a tap (``wsw28-wifi``) carrying its ns-3 device's own MAC
+address; the ns-3 scenario (``ns3/wifi_medium.cc``, built on first use) opens the taps
+and runs in real time under a hard limit on lag, writing its counters (per node: frames
+through the tap, MAC acks, failed transmissions, drops, airtime; the largest lag) as JSON
+lines to a stats file. A lag beyond the limit ends the scenario: ``check`` then raises.
+
+Records live under ``/run/wiswarm-testbed/wifi`` (not beside the tbf channels' records,
+which ``channel`` prunes), naming the owning process and the scenario's, so the next
+build removes a medium whose owner died (SIGKILL) and stops its scenario.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import logging
+import os
+import re
+import select
+import signal
+import subprocess
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from types import TracebackType
+from typing import IO, Any
+
+from wiswarm_zenoh.testbed.channel import STATE_DIR
+from wiswarm_zenoh.testbed.netns import NETNS_DIR
+from wiswarm_zenoh.testbed.ns3_build import scenario_binary
+from wiswarm_zenoh.testbed.ownership import (
+    locked,
+    namespace_exists,
+    process_start,
+    remove_orphans,
+)
+from wiswarm_zenoh.testbed.spec import MTU, check_available
+from wiswarm_zenoh.testbed.tc import run
+
+log = logging.getLogger(__name__)
+
+RECORDS = STATE_DIR / "wifi"
+NS_PREFIX = "wsw28-"  # not "wsw-": the tbf channels' cleanup owns that prefix
+TAP = "wsw28-wifi"
+STANDARDS = ("80211g", "80211n")
+MAX_STATIONS = 30
+SUBNETS = range(1, 255)  # medium k: AP 10.203.k.1, station i 10.203.k.(i + 1)
+STOP_TIMEOUT = 5.0
+HT_20MHZ_MBPS = (6.5, 13.0, 19.5, 26.0, 39.0, 52.0, 58.5, 65.0)  # MCS 0-7, long guard
+SATURATED_SHARE = 0.7
+_counter = itertools.count()
+
+
+class MediumFailed(RuntimeError):
+    """The ns-3 scenario ended under a run: lag beyond the hard limit, or a crash."""
+
+
+@dataclass(frozen=True)
+class WifiSpec:
+    """The medium: stations, 802.11 standard, data rate (an ns-3 WifiMode name, None for
+    the standard's default: 24 Mbit/s ERP-OFDM for g, HT MCS 7 for n) and the largest
+    lag behind the wall clock the run tolerates."""
+
+    stations: int = 4
+    standard: str = "80211g"
+    data_mode: str | None = None
+    hard_limit_ms: float = 100.0
+
+    @property
+    def phy_rate_bps(self) -> float:
+        """The data rate's bits/s on air (ErpOfdmRate<R>Mbps, HtMcs<k> at 20 MHz)."""
+        mode = self.data_mode or ("ErpOfdmRate24Mbps" if self.standard == "80211g"
+                                  else "HtMcs7")
+        erp = re.fullmatch(r"ErpOfdmRate(\d+)Mbps", mode)
+        if erp:
+            return float(erp.group(1)) * 1e6
+        ht = re.fullmatch(r"HtMcs(\d+)", mode)
+        if ht and int(ht.group(1)) < len(HT_20MHZ_MBPS):
+            return HT_20MHZ_MBPS[int(ht.group(1))] * 1e6
+        raise ValueError(f"data_mode {mode!r}: use ErpOfdmRate<R>Mbps (802.11g) or "
+                         "HtMcs0..HtMcs7 (802.11n)")
+
+    @property
+    def capacity_bps(self) -> float:
+        """Payload bits/s the air carries for saturated stations: a start for the
+        best-rate search (measured: 16.8 of 24 Mbit/s for 802.11g), not a result."""
+        return SATURATED_SHARE * self.phy_rate_bps
+
+    def describe(self) -> str:
+        return (f"ns-3 {self.standard} at 2.4 GHz, "
+                f"{self.data_mode or 'default'} ({self.phy_rate_bps / 1e6:g} Mbit/s), "
+                f"hard lag limit {self.hard_limit_ms:g} ms")
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.stations, int) and 1 <= self.stations <= MAX_STATIONS):
+            raise ValueError(f"stations must be in [1, {MAX_STATIONS}], got {self.stations!r}")
+        if self.standard not in STANDARDS:
+            raise ValueError(f"standard must be one of {', '.join(STANDARDS)}, "
+                             f"got {self.standard!r}")
+        if not self.hard_limit_ms > 0:
+            raise ValueError(f"hard_limit_ms must be > 0, got {self.hard_limit_ms!r}")
+        _ = self.phy_rate_bps  # the data rate's own check, naming the field
+
+
+@dataclass(frozen=True)
+class MediumStats:
+    """The scenario's last stats line: simulated time, largest lag, per-node counters
+    (index 0 the access point)."""
+
+    t: float
+    max_lag_ms: float
+    nodes: list[dict[str, float]] = field(default_factory=list)
+    event: str = "stats"
+
+    def total(self, name: str, stations_only: bool = False) -> float:
+        return sum(node[name] for node in self.nodes[1 if stations_only else 0:])
+
+
+def window_counters(first: MediumStats, last: MediumStats, span: float) -> dict[str, float]:
+    """The medium over a run's window: frames each way per second, failed transmissions
+    (not acknowledged: collisions and errors, each then retried) and their share of all
+    transmissions, drops at the retry limit and at full queues, the air's busy share
+    (every node's transmit time over the window) and the largest lag behind real time."""
+    if not (first.nodes and last.nodes) or span <= 0:
+        return {"max_lag_ms": last.max_lag_ms}
+
+    def delta(name: str, stations_only: bool = False) -> float:
+        return last.total(name, stations_only) - first.total(name, stations_only)
+
+    acked, failed = delta("acked"), delta("nacked")
+    return {
+        "uplink_frames_per_s": delta("from_tap", stations_only=True) / span,
+        "downlink_frames_per_s": (last.nodes[0]["from_tap"] - first.nodes[0]["from_tap"])
+        / span,
+        "failed_tx": failed,
+        "failed_tx_share": failed / (acked + failed) if acked + failed else 0.0,
+        "retry_drops": delta("drop_retry"),
+        "queue_drops": delta("drop_queue"),
+        "airtime_share": delta("tx_airtime_s") / span,
+        "max_lag_ms": last.max_lag_ms,
+    }
+
+
+def _ns(run_id: str, node: int) -> str:
+    return f"{NS_PREFIX}{run_id}-{'ap' if node == 0 else f's{node}'}"
+
+
+def _paths(run_id: str) -> tuple[Path, Path, Path]:
+    """Record, stats lines, scenario's stderr."""
+    return (RECORDS / f"{run_id}.json", RECORDS / f"{run_id}.stats",
+            RECORDS / f"{run_id}.log")
+
+
+def _load(run_id: str) -> dict[str, Any] | None:
+    try:
+        data: dict[str, Any] = json.loads(_paths(run_id)[0].read_text())
+        return data
+    except (OSError, ValueError) as exc:
+        log.debug("no usable record of WiFi medium %s: %s", run_id, exc)
+        return None
+
+
+def _save(record: dict[str, Any]) -> None:
+    path = _paths(str(record["run_id"]))[0]
+    temporary = path.with_suffix(".tmp")
+    temporary.write_text(json.dumps(record, indent=1) + "\n")
+    os.replace(temporary, path)
+
+
+def list_media() -> list[str]:
+    """Run ids of every medium present (its access point's namespace)."""
+    try:
+        names = os.listdir(NETNS_DIR)
+    except FileNotFoundError:
+        return []
+    return sorted(name[len(NS_PREFIX):-len("-ap")] for name in names
+                  if name.startswith(NS_PREFIX) and name.endswith("-ap"))
+
+
+def _stop_scenario(record: dict[str, Any]) -> None:
+    """SIGTERM the scenario if it is still the process the record names, then SIGKILL."""
+    pid, start = int(record.get("scenario_pid", 0)), record.get("scenario_start")
+    if pid <= 0 or process_start(pid) != start:
+        return
+    try:
+        handle = os.pidfd_open(pid)  # readable once the process has ended
+    except ProcessLookupError:
+        return  # it ended meanwhile
+    try:
+        os.kill(pid, signal.SIGTERM)
+        if not select.select([handle], [], [], STOP_TIMEOUT)[0]:
+            os.kill(pid, signal.SIGKILL)
+    finally:
+        os.close(handle)
+
+
+def _remove_locked(run_id: str, record: dict[str, Any] | None) -> bool:
+    if record is not None:
+        _stop_scenario(record)
+    present = [ns for ns in (f"{NS_PREFIX}{run_id}-{name}" for name in _node_names(run_id))
+               if namespace_exists(ns)]
+    for ns in present:
+        run("ip", "netns", "del", ns)  # takes its tap along
+    left = [ns for ns in present if namespace_exists(ns)]
+    if left:
+        raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
+    for path in _paths(run_id):
+        path.unlink(missing_ok=True)
+    return bool(present)
+
+
+def _node_names(run_id: str) -> list[str]:
+    prefix = f"{NS_PREFIX}{run_id}-"
+    try:
+        names = os.listdir(NETNS_DIR)
+    except FileNotFoundError:
+        return []
+    return [name[len(prefix):] for name in names if name.startswith(prefix)
+            and (name[len(prefix):] == "ap" or name[len(prefix):].lstrip("s").isdigit())]
+
+
+def _owned(record: dict[str, Any]) -> bool:
+    return (int(record["owner_pid"]) == 0
+            or process_start(int(record["owner_pid"])) == record["owner_start"])
+
+
+def _cleanup_locked() -> list[str]:
+    recorded = {path.stem for path in RECORDS.glob("*.json")}
+    return remove_orphans("WiFi medium", sorted(set(list_media()) | recorded), _load, _owned,
+                          lambda record: int(record["owner_pid"]), _remove_locked)
+
+
+def cleanup_leftovers() -> list[str]:
+    """Remove media whose creating process is gone (and stop their scenarios)."""
+    with locked(RECORDS):
+        return _cleanup_locked()
+
+
+def remove_medium(run_id: str) -> None:
+    """Remove medium ``run_id`` whoever made it; LookupError if there is none."""
+    with locked(RECORDS):
+        if not _remove_locked(run_id, _load(run_id)):
+            raise LookupError(f"no WiFi medium {run_id!r}")
+    log.info("removed WiFi medium %s", run_id)
+
+
+class WifiMedium:
+    """One simulated WiFi channel with its namespaces; a context manager that builds it
+    and removes it. ``name`` chooses the run id, as for ``Channel``."""
+
+    run_id: str
+    subnet: int
+
+    def __init__(self, spec: WifiSpec = WifiSpec(), name: str | None = None) -> None:
+        self.spec = spec
+        self.persistent = False
+        self.owner_pid = os.getpid()
+        self._name = name
+        self._built = False
+        self._scenario: subprocess.Popen[str] | None = None
+
+    def __enter__(self) -> WifiMedium:
+        return self.build()
+
+    def __exit__(self, kind: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
+
+    @property
+    def leader_ns(self) -> str:
+        """The access point's namespace: router and leader (or receiver) live there."""
+        return _ns(self.run_id, 0)
+
+    @property
+    def leader_addr(self) -> str:
+        return self.address(0)
+
+    @property
+    def station_namespaces(self) -> list[str]:
+        """One namespace per station, follower i (0-based) in the (i + 1)-th."""
+        return [_ns(self.run_id, i) for i in range(1, self.spec.stations + 1)]
+
+    def address(self, node: int) -> str:
+        return f"10.203.{self.subnet}.{node + 1}"
+
+    def build(self, *, persistent: bool = False) -> WifiMedium:
+        """Namespaces and taps, then the scenario, in real time once this returns."""
+        if self._built:
+            return self
+        check_available()
+        binary = scenario_binary()
+        with locked(RECORDS):
+            _cleanup_locked()
+            self.run_id = self._name or self._fresh_id()
+            if self.run_id in list_media() or _paths(self.run_id)[0].exists():
+                raise ValueError(f"a WiFi medium named {self.run_id!r} exists already")
+            used = {int(r["subnet"]) for r in map(_load, list_media()) if r is not None}
+            subnet = next((k for k in SUBNETS if k not in used), None)
+            if subnet is None:
+                raise RuntimeError("every WiFi medium subnet is in use: remove media with "
+                                   "`wiswarm testbed down`")
+            self.subnet, self.persistent = subnet, persistent
+            owner = 0 if persistent else os.getpid()
+            self._record: dict[str, Any] = {"run_id": self.run_id, "owner_pid": owner,
+                            "owner_start": process_start(owner) if owner else 0,
+                            "subnet": subnet, "spec": asdict(self.spec),
+                            "scenario_pid": 0, "scenario_start": None}
+            _save(self._record)
+            try:
+                self._create()
+                self._start(binary)
+            except BaseException:
+                _remove_locked(self.run_id, self._record)
+                raise
+        self._built = True
+        log.info("WiFi medium %s up: %d stations, %s, hard lag limit %g ms", self.run_id,
+                 self.spec.stations, self.spec.standard, self.spec.hard_limit_ms)
+        return self
+
+    @staticmethod
+    def _fresh_id() -> str:
+        taken = set(list_media())
+        while True:
+            run_id = f"{os.getpid():x}-{next(_counter)}"
+            if run_id not in taken and not _paths(run_id)[0].exists():
+                return run_id
+
+    def _create(self) -> None:
+        for node in range(self.spec.stations + 1):
+            ns = _ns(self.run_id, node)
+            run("ip", "netns", "add", ns)
+            run("ip", "-n", ns, "tuntap", "add", "dev", TAP, "mode", "tap")
+            # One MTU-sized packet per skb (as on the tbf channel), no IPv6 chatter.
+            run("ip", "-n", ns, "link", "set", "dev", TAP, "mtu", str(MTU), "gso_max_size",
+                str(MTU), "gso_max_segs", "1", "addrgenmode", "none")
+            run("ip", "-n", ns, "addr", "add", f"{self.address(node)}/24", "dev", TAP)
+            run("ip", "-n", ns, "link", "set", "dev", "lo", "up")
+
+    def _start(self, binary: Path) -> None:
+        _, stats, errors = _paths(self.run_id)
+        namespaces = [_ns(self.run_id, node) for node in range(self.spec.stations + 1)]
+        argv = [str(binary), f"--stations={self.spec.stations}",
+                f"--standard={self.spec.standard}", f"--namespaces={','.join(namespaces)}",
+                f"--tap={TAP}", f"--hardLimitMs={self.spec.hard_limit_ms:g}",
+                f"--statsFile={stats}"]
+        if self.spec.data_mode:
+            argv.append(f"--dataMode={self.spec.data_mode}")
+        with errors.open("w") as stderr:
+            scenario = subprocess.Popen(argv, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                        stderr=stderr, text=True, start_new_session=True)
+        self._scenario = scenario
+        self._record.update(scenario_pid=scenario.pid,
+                            scenario_start=process_start(scenario.pid))
+        _save(self._record)
+        assert scenario.stdin is not None and scenario.stdout is not None
+        addresses = self._expect(scenario.stdout, "addresses")
+        for ns, mac in zip(namespaces, addresses["macs"], strict=True):
+            run("ip", "-n", ns, "link", "set", "dev", TAP, "address", str(mac))
+            run("ip", "-n", ns, "link", "set", "dev", TAP, "up")
+        scenario.stdin.write("go\n")
+        scenario.stdin.close()
+        self._expect(scenario.stdout, "ready")
+        scenario.stdout.close()
+
+    def _expect(self, stream: IO[str], event: str) -> dict[str, Any]:
+        line = stream.readline()
+        try:
+            message: dict[str, Any] = json.loads(line)
+        except ValueError:
+            message = {}
+        if message.get("event") != event:
+            raise MediumFailed(f"the ns-3 scenario did not start: {self._stderr_tail()}")
+        return message
+
+    def _stderr_tail(self) -> str:
+        with contextlib.suppress(OSError):
+            text = _paths(self.run_id)[2].read_text().strip()
+            return text[-500:] or "no message"
+        return "no message"
+
+    @property
+    def scenario_process(self) -> tuple[int, int | None]:
+        """The ns-3 scenario's pid and start time (clock ticks), as recorded."""
+        record = _load(self.run_id) or self._record
+        return int(record["scenario_pid"]), record["scenario_start"]
+
+    def stats(self) -> MediumStats:
+        """The scenario's last counters (cumulative since it started)."""
+        last = None
+        with contextlib.suppress(OSError), _paths(self.run_id)[1].open() as lines:
+            for line in lines:
+                last = line
+        if last is None:
+            return MediumStats(0.0, 0.0)
+        data = json.loads(last)
+        return MediumStats(float(data["t"]), float(data["max_lag_ms"]), data["nodes"],
+                           str(data["event"]))
+
+    def check(self) -> None:
+        """MediumFailed if the scenario has ended (lag beyond the hard limit, a crash)."""
+        record = _load(self.run_id) or {}
+        pid = int(record.get("scenario_pid", 0))
+        if self._scenario is not None and self._scenario.poll() is None:
+            return
+        if self._scenario is None and pid > 0 \
+                and process_start(pid) == record.get("scenario_start"):
+            return
+        stats, stderr = self.stats(), self._stderr_tail()
+        jitter = re.search(r"Hard real-time limit exceeded \(jitter = (\d+)\)", stderr)
+        if stats.event == "lag-exceeded" or jitter:  # our watch, or ns-3's own HardLimit
+            lag = max(stats.max_lag_ms, int(jitter.group(1)) / 1e6 if jitter else 0.0)
+            raise MediumFailed(f"WiFi medium {self.run_id}: the simulation fell more than "
+                               f"{self.spec.hard_limit_ms:g} ms behind real time (lag "
+                               f"{lag:.3f} ms): this machine cannot hold "
+                               f"{self.spec.stations} stations at this load")
+        why = ("it was stopped (SIGTERM: `wiswarm testbed down`?)" if stats.event == "end"
+               else stderr)
+        raise MediumFailed(f"WiFi medium {self.run_id}: the ns-3 scenario ended: {why}")
+
+    def close(self) -> None:
+        """Stop the scenario, remove namespaces, taps and record; safe to repeat."""
+        if not self._built:
+            return
+        if self._scenario is not None and self._scenario.poll() is None:
+            self._scenario.terminate()
+            try:
+                self._scenario.wait(STOP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                self._scenario.kill()
+                self._scenario.wait()
+        with locked(RECORDS):
+            _remove_locked(self.run_id, _load(self.run_id))
+        self._built = False
+        log.info("WiFi medium %s removed", self.run_id)
+
+    def describe(self) -> str:
+        owner = ("persistent (until `wiswarm testbed down`)" if self.persistent
+                 else f"owned by pid {self.owner_pid}")
+        stats = self.stats()
+        return "\n".join((
+            f"WiFi medium {self.run_id}, {owner}",
+            f"  ns-3 {self.spec.standard} at 2.4 GHz, data rate "
+            f"{self.spec.data_mode or 'the standard default'}, {self.spec.stations} stations "
+            "and an access point, in real time",
+            f"  largest lag behind real time {stats.max_lag_ms:.2f} ms "
+            f"(hard limit {self.spec.hard_limit_ms:g} ms) at t={stats.t:.0f} s",
+            f"  leader side: router + leader in {self.leader_ns} at {self.leader_addr}",
+            f"  stations: followers in {NS_PREFIX}{self.run_id}-s1 .. "
+            f"-s{self.spec.stations} at {self.address(1)} .. "
+            f"{self.address(self.spec.stations)}",
+        ))
+
+    @classmethod
+    def attach(cls, run_id: str) -> WifiMedium:
+        """The present medium ``run_id`` (made by any process); LookupError if none."""
+        record = _load(run_id)
+        if record is None or not namespace_exists(_ns(run_id, 0)):
+            raise LookupError(f"no WiFi medium {run_id!r}")
+        medium = cls(WifiSpec(**record["spec"]))
+        medium.run_id, medium.subnet = run_id, int(record["subnet"])
+        medium.persistent = int(record["owner_pid"]) == 0
+        medium.owner_pid = int(record["owner_pid"])
+        medium._record = record
+        medium._built = True
+        return medium
