@@ -14,14 +14,12 @@ from __future__ import annotations
 import os
 import re
 import socket
-import subprocess
-import sys
-import threading
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
+from wiswarm_zenoh.testbed.faults import Process
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 RUN = 8.0  # seconds a node runs (--duration)
@@ -29,44 +27,20 @@ NOISE = re.compile(r"\bWARN(ING)?\b|\bERROR\b|Traceback")
 LOG_LINE = re.compile(r"^\d{4}-\d\d-\d\d[ T]\d\d:\d\d:\d\d")  # ours and Zenoh's
 
 
-class Node:
-    """A ``wiswarm`` command as a user starts it; its output, read as it comes."""
+class Node(Process):
+    """A ``wiswarm`` command as a user starts it (``Process``), timed from its start."""
 
-    def __init__(self, argv: Sequence[str], cwd: Path) -> None:
+    def __init__(self, argv: Sequence[str]) -> None:
         env = {**os.environ, "PYTHONUNBUFFERED": "1"}
         env.pop("RUST_LOG", None)
         self.argv = list(argv)
         self.started = time.monotonic()
-        self.popen = subprocess.Popen([sys.executable, "-m", "wiswarm_zenoh.cli.main", *argv],
-                                      cwd=cwd, env=env, stdout=subprocess.PIPE,
-                                      stderr=subprocess.STDOUT, text=True)
-        self.lines: list[str] = []
-        self._cond = threading.Condition()
-        threading.Thread(target=self._read, daemon=True).start()
-
-    def _read(self) -> None:
-        assert self.popen.stdout is not None
-        for line in self.popen.stdout:
-            with self._cond:
-                self.lines.append(line.rstrip("\n"))
-                self._cond.notify_all()
-
-    def wait_for(self, text: str, timeout: float = 30.0) -> str:
-        with self._cond:
-            found = self._cond.wait_for(
-                lambda: next((x for x in self.lines if text in x), None), timeout)
-            assert found, f"{self.argv[0]} never said {text!r}: {self.lines[-8:]}"
-            return str(found)
+        super().__init__(argv[0], argv, env)
 
     def finish(self, timeout: float = 60.0) -> int:
         code = self.popen.wait(timeout)
         time.sleep(0.1)  # the reader thread takes the last lines (the pipe is closed)
         return code
-
-    def stop(self) -> None:
-        if self.popen.poll() is None:
-            self.popen.terminate()
-            self.popen.wait(20)
 
     def quiet(self) -> None:
         """No traceback, WARNING or ERROR, and at most 10 log lines a minute."""
@@ -78,7 +52,7 @@ class Node:
 
 
 @contextmanager
-def nodes(cwd: Path) -> Iterator[list[Node]]:
+def nodes() -> Iterator[list[Node]]:
     started: list[Node] = []
     try:
         yield started
@@ -93,14 +67,14 @@ def _endpoint(port: int) -> list[str]:
 
 def test_a_swarm_by_hand_runs_quietly(tmp_path: Path) -> None:
     port = free_tcp_port()
-    with nodes(tmp_path) as started:
-        router = Node(["router", "-l", f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"],
-                      tmp_path)  # until stopped (SIGTERM: as Ctrl-C), after the others
+    with nodes() as started:
+        # until stopped (SIGTERM: as Ctrl-C), after the others
+        router = Node(["router", "-l", f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"])
         started.append(router)
         router.wait_for("listening")
-        leader = Node(["leader", *_endpoint(port), "--duration", str(RUN)], tmp_path)
+        leader = Node(["leader", *_endpoint(port), "--duration", str(RUN)])
         followers = [Node(["follower", "--id", f"uav{i}", *_endpoint(port), "--duration",
-                           str(RUN)], tmp_path) for i in (1, 2)]
+                           str(RUN)]) for i in (1, 2)]
         started += [leader, *followers]
         for node in (leader, *followers):
             assert node.finish() == 0, node.lines[-5:]
@@ -115,19 +89,18 @@ def test_a_secured_swarm_with_an_observers_dashboard_runs_quietly(tmp_path: Path
     pki = tmp_path / "swarm-pki"
     init = Node(["security", "init", "--out", str(pki), "--followers", "uav1",
                  "--observers", "ground", "--port", str(port),
-                 "--listen", f"tls/127.0.0.1:{port}"], tmp_path)
+                 "--listen", f"tls/127.0.0.1:{port}"])
     assert init.finish() == 0, init.lines
     web = free_tcp_port()
-    with nodes(tmp_path) as started:
-        router = Node(["router", "-c", str(pki / "router.json5")], tmp_path)
+    with nodes() as started:
+        router = Node(["router", "-c", str(pki / "router.json5")])
         started.append(router)
         router.wait_for("listening")
-        leader = Node(["leader", "-c", str(pki / "leader.json5"), "--duration", str(RUN)],
-                      tmp_path)
+        leader = Node(["leader", "-c", str(pki / "leader.json5"), "--duration", str(RUN)])
         follower = Node(["follower", "--id", "uav1", "-c", str(pki / "uav1.json5"),
-                         "--duration", str(RUN)], tmp_path)
+                         "--duration", str(RUN)])
         dashboard = Node(["dashboard", "-c", str(pki / "ground.json5"), "--port", str(web),
-                          "--duration", str(RUN)], tmp_path)
+                          "--duration", str(RUN)])
         started += [leader, follower, dashboard]
         for node in (leader, follower, dashboard):
             assert node.finish() == 0, node.lines[-5:]
@@ -139,14 +112,14 @@ def test_a_secured_swarm_with_an_observers_dashboard_runs_quietly(tmp_path: Path
 def test_a_short_demo_on_loopback_runs_quietly(tmp_path: Path) -> None:
     demo = Node(["demo", "--channel", "none", "--system", "wiswarm", "--uavs", "2",
                  "--duration", "4", "--warmup", "1", "--no-dashboard", "--no-gif",
-                 "--no-live", "--out", str(tmp_path / "runs")], tmp_path)
+                 "--no-live", "--out", str(tmp_path / "runs")])
     assert demo.finish(120.0) == 0, demo.lines[-8:]
     demo.quiet()
 
 
 def test_no_router_where_the_leader_is_pointed_is_named_in_one_line(tmp_path: Path) -> None:
     port = free_tcp_port()  # nothing listens there
-    leader = Node(["leader", *_endpoint(port), "--duration", "5"], tmp_path)
+    leader = Node(["leader", *_endpoint(port), "--duration", "5"])
     line = leader.wait_for("no router reached")
     assert f"tcp/127.0.0.1:{port}" in line and "wiswarm router" in line
     leader.finish()
@@ -156,13 +129,12 @@ def test_a_plain_endpoint_at_a_tls_router_is_named_on_both_sides(tmp_path: Path)
     port = free_tcp_port()
     pki = tmp_path / "swarm-pki"
     assert Node(["security", "init", "--out", str(pki), "--followers", "uav1", "--port",
-                 str(port), "--listen", f"tls/127.0.0.1:{port}"], tmp_path).finish() == 0
-    with nodes(tmp_path) as started:
-        router = Node(["router", "-c", str(pki / "router.json5")], tmp_path)
+                 str(port), "--listen", f"tls/127.0.0.1:{port}"]).finish() == 0
+    with nodes() as started:
+        router = Node(["router", "-c", str(pki / "router.json5")])
         started.append(router)
         router.wait_for("listening")
-        leader = Node(["leader", "-m", "peer", *_endpoint(port), "--duration", "6"],
-                      tmp_path)
+        leader = Node(["leader", "-m", "peer", *_endpoint(port), "--duration", "6"])
         started.append(leader)
         assert "tls/HOST:PORT" in leader.wait_for("no router reached")
         said = router.wait_for("without TLS")
@@ -177,7 +149,7 @@ def test_a_dashboard_port_in_use_is_named_at_once(tmp_path: Path) -> None:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
-        dashboard = Node(["dashboard", "--port", str(port), "--duration", "5"], tmp_path)
+        dashboard = Node(["dashboard", "--port", str(port), "--duration", "5"])
         assert dashboard.finish(30.0) == 2
     assert time.monotonic() - dashboard.started < 8.0  # no scouting first
     assert any(f"port {port}" in line and "in use" in line for line in dashboard.lines)
