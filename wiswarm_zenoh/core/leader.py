@@ -10,6 +10,7 @@ from collections.abc import Mapping, Sequence
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale, TimedOut, drain
+from wiswarm_zenoh.core.fast_path import quick_choice
 from wiswarm_zenoh.core.in_flight import InFlightTuner
 from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
@@ -349,30 +350,12 @@ class Leader:
         self.table.sync(follower)
 
     def _quick_choice(self, now: float) -> int | None:
-        """The pick made while the last poll was out, if its reply came as expected and
-        the polled follower's new index does not beat the pick (see the class)."""
+        """The pick made while the last poll was out, if it still holds (``fast_path``)."""
         pick, self._pick = self._pick, None
-        if pick is None or len(self._waiting) != 1 or now > pick.at + self.slot:
-            return None  # nothing picked, more work waiting, or the reply came late
-        life = self._waiting[0]
-        reply = life.reply
-        if reply is None or life.request.poll_seq != pick.poll_seq:
-            return None
-        frag, peer = reply.fragment, life.peer
-        if frag is not None and frag.count != 1:
-            return None  # a fragment of a larger update: its want and ack change
-        if self._pacing and (frag is None or peer.pace.paced):
-            return None  # its pace decides when it is due again
-        if self.site_links.shared(life.request.follower) \
-                and peer.reliability.after(True) != peer.reliability.value:
-            return None  # the answer changes its site's p: the others' indices move too
-        fresh_from = now if frag is None else peer.clock.to_leader(frag.generated_at)
-        age = max(pick.at - max(peer.policy_tau, fresh_from), 0.0) / self.slot
-        i = self.table.index(life.request.follower)
-        value = pick.index(self.table.w[i], peer.reliability.after(True), age)
-        if value > pick.value or (value == pick.value and i < pick.choice):
-            return None
-        return pick.choice
+        if pick is None or len(self._waiting) != 1:
+            return None  # nothing picked, or more work waiting
+        return quick_choice(pick, self._waiting[0], self.table, self.site_links, self.slot,
+                            self._pacing, now)
 
     def _start_poll(self, choice: int, now: float) -> PollRequest:
         """Put a poll of the follower at ``choice`` in the table in flight."""
