@@ -1,0 +1,1 @@
+"""The API a robot team embeds, exported as ``wiswarm_zenoh``'s own names."""

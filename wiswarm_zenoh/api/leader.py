@@ -1,0 +1,140 @@
+"""The leader a robot team embeds: polls its swarm's followers on a Zenoh session it
+is given, and hands each fresh update to a handler (a callable, a FIFO or a ring
+channel, as zenoh-python's subscribers do)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Sequence
+from types import TracebackType
+from typing import Any
+
+import zenoh
+
+from wiswarm_zenoh.api.handlers import Handler, deliver_to, reading
+from wiswarm_zenoh.core import Delivered, FollowerStats, LeaderConfig
+from wiswarm_zenoh.transport.bridge import BridgeOptions
+from wiswarm_zenoh.transport.leader_node import LeaderNode
+from wiswarm_zenoh.transport.telemetry import LeaderSummary
+
+
+class Leader:
+    """Polls the followers of ``swarm`` on ``session`` until ``close()`` (or the end of a
+    ``with`` block), choosing whom to poll next by ``config.policy`` (the Whittle index
+    by default), and publishes the swarm's stats on ``wiswarm/<swarm>/...``.
+
+    ``handler`` gets every fresh update (a ``Delivered``: follower, payload, times): a
+    callable runs on the poll thread, a ``FifoChannel`` or ``RingChannel`` is read with
+    ``recv``, ``try_recv`` or ``for delivery in leader``. ``on_join`` and ``on_leave``
+    get a follower's id as its liveliness token comes and goes, ``on_role`` True once
+    this leader polls and False while an older one does (any number may run: the
+    others stand by and take over). ``name`` tells leaders apart (default: host and
+    process id); ``bridge`` (``wiswarm_zenoh.ros2.Ros2Options``) mirrors the swarm to
+    ROS 2. The other keywords tune the leader's timings; leave them out for the defaults.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        swarm: str,
+        handler: Handler[Delivered] | None = None,
+        *,
+        config: LeaderConfig | None = None,
+        on_join: Callable[[str], None] | None = None,
+        on_leave: Callable[[str], None] | None = None,
+        on_role: Callable[[bool], None] | None = None,
+        name: str | None = None,
+        bridge: BridgeOptions | None = None,
+        stats_period: float | None = None,
+        control_period: float | None = None,
+        forget_after: float | None = None,
+        epoch: int | None = None,
+    ) -> None:
+        on_delivery, self._channel = deliver_to(handler)
+        timings: dict[str, Any] = {key: value for key, value in (
+            ("stats_period", stats_period), ("control_period", control_period),
+            ("forget_after", forget_after)) if value is not None}
+        self._node = LeaderNode(session, swarm, config, on_delivery=on_delivery,
+                                on_join=on_join, on_leave=on_leave, on_role=on_role,
+                                epoch=epoch, name=name, bridge=bridge, **timings)
+
+    @property
+    def swarm(self) -> str:
+        """The swarm this leader polls."""
+        return self._node.keys.swarm
+
+    @property
+    def name(self) -> str:
+        """This leader's name among the swarm's leaders."""
+        return self._node.name
+
+    @property
+    def config(self) -> LeaderConfig:
+        """The policy, timeouts and estimators this leader runs with."""
+        return self._node.config
+
+    @property
+    def followers(self) -> list[str]:
+        """The followers polled now (those whose token is up)."""
+        return self._node.followers
+
+    @property
+    def polls(self) -> int:
+        """Polls sent so far."""
+        return self._node.polls
+
+    @property
+    def epoch(self) -> int:
+        """This leader's epoch (it rises at each takeover; followers obey the highest)."""
+        return self._node.epoch
+
+    @property
+    def active(self) -> bool:
+        """True while this leader polls; False while it stands by."""
+        return self._node.active
+
+    @property
+    def stats(self) -> list[FollowerStats]:
+        """Each follower's last published stats (``wiswarm/<swarm>/<id>/stats``)."""
+        return self._node.latest
+
+    @property
+    def summary(self) -> LeaderSummary:
+        """The last ``wiswarm/<swarm>/leader/stats`` published."""
+        return self._node.summary
+
+    def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
+        """Steer ``follower``: its waypoints (``x, y, z, yaw`` each) go out with the next
+        poll on ``wiswarm/<swarm>/control`` and reach its ``on_control``."""
+        self._node.set_control(follower, waypoints)
+
+    def observe_urgency(self, follower: str, urgency: float) -> float:
+        """Weigh ``follower`` by the application's urgency (how much its freshness matters
+        now, >= 0): fed into its weight's moving average, which the policy multiplies
+        its age by; returns the weight."""
+        return self._node.observe_urgency(follower, urgency)
+
+    def recv(self, timeout: float | None = None) -> Delivered | None:
+        """The next delivery from this leader's channel (see ``Channel.recv``)."""
+        return reading(self._channel, "leader").recv(timeout)
+
+    def try_recv(self) -> Delivered | None:
+        """The next delivery from this leader's channel, or None at once."""
+        return reading(self._channel, "leader").try_recv()
+
+    def __iter__(self) -> Iterator[Delivered]:
+        """Every delivery from this leader's channel until ``close()``."""
+        return iter(reading(self._channel, "leader"))
+
+    def close(self) -> None:
+        """Stop polling and leave the swarm (a standby leader takes over); a channel's
+        deliveries kept so far can still be read."""
+        if self._channel is not None:
+            self._channel.close()  # a poll thread waiting on a full FIFO goes on
+        self._node.close()
+
+    def __enter__(self) -> Leader:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()

@@ -1,0 +1,163 @@
+"""Watching a swarm without taking part, for tools: its leader's stats, each follower's
+stats and the leader's stream of deliveries, checked and typed (anyone may publish on a
+swarm's keys: what does not parse is counted and logged with its key, and skipped)."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import typing
+from collections.abc import Iterator
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any, TypeAlias, TypeVar
+
+import zenoh
+
+from wiswarm_zenoh.api.handlers import Handler, deliver_to, reading
+from wiswarm_zenoh.core import FollowerStats
+from wiswarm_zenoh.dashboard.records import parse_deliveries
+from wiswarm_zenoh.dashboard.watch import Watch, json_payload
+from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.telemetry import LeaderSummary
+
+log = logging.getLogger(__name__)
+R = TypeVar("R", FollowerStats, LeaderSummary)
+
+
+@dataclass(frozen=True)
+class DeliveryRecord:
+    """One entry of ``wiswarm/<swarm>/leader/deliveries``: an update delivered, or a poll
+    that timed out (``generated_at`` None); times on the leader's clock, in seconds."""
+
+    follower: str
+    generated_at: float | None
+    delivered_at: float
+
+    @property
+    def timed_out(self) -> bool:
+        """The poll went unanswered (nothing was delivered)."""
+        return self.generated_at is None
+
+
+Observation: TypeAlias = LeaderSummary | FollowerStats | DeliveryRecord
+"""What an ``Observer`` hands on: match on its type."""
+
+
+def typed(cls: type[R], record: Any) -> R:
+    """``record`` (a JSON object) as ``cls``: each field of the right type, a missing one
+    at its default (or NaN, 0, "" when it has none); ValueError naming a wrong one."""
+    if not isinstance(record, dict):
+        raise ValueError(f"stats must be a JSON object, got {type(record).__name__}")
+    hints = typing.get_type_hints(cls)
+    values: dict[str, Any] = {}
+    for field in dataclasses.fields(cls):
+        kind = hints[field.name]
+        if field.name not in record:
+            if field.default is dataclasses.MISSING:
+                values[field.name] = {float: math.nan, int: 0, str: ""}.get(kind, [])
+            continue
+        value = record[field.name]
+        if kind is float and isinstance(value, int | float) and not isinstance(value, bool):
+            value = float(value)
+        elif kind is list[str] and isinstance(value, list) and all(
+                isinstance(item, str) for item in value):
+            value = list(value)
+        elif kind not in (float, list[str]) and not (
+                isinstance(value, kind) and (kind is bool or not isinstance(value, bool))):
+            raise ValueError(f"{field.name} must be {getattr(kind, '__name__', kind)}, "
+                             f"got {value!r:.40}")
+        values[field.name] = value
+    return cls(**values)
+
+
+class Observer:
+    """Subscribes to the stats and delivery stream of ``swarm`` on ``session`` until
+    ``close()`` (or the end of a ``with`` block); nothing is sent, so no leader slows.
+
+    ``handler`` gets every ``Observation`` as it comes: a ``LeaderSummary``
+    (``leader/stats``, at least 2 Hz), a ``FollowerStats`` (``<follower>/stats``) or a
+    ``DeliveryRecord`` (``leader/deliveries``, in batches at 10 Hz); a callable runs on
+    Zenoh's thread, a channel is read with ``recv``, ``try_recv`` or a ``for`` loop.
+    ``leader`` and ``followers`` keep the latest stats for a look at any time.
+    """
+
+    def __init__(self, session: zenoh.Session, swarm: str,
+                 handler: Handler[Observation] | None = None) -> None:
+        self._keys = SwarmKeys(swarm)
+        self._emit, self._channel = deliver_to(handler)
+        self._leader: LeaderSummary | None = None
+        self._followers: dict[str, FollowerStats] = {}
+        self.bad_input = BadInputLog(log)
+        self._watch = Watch(session, {
+            self._keys.all_stats: json_payload(self._on_stats),
+            self._keys.leader_deliveries: json_payload(self._on_deliveries),
+        }, self.bad_input)
+
+    @property
+    def swarm(self) -> str:
+        """The swarm watched."""
+        return self._keys.swarm
+
+    @property
+    def leader(self) -> LeaderSummary | None:
+        """The active leader's last ``leader/stats`` (None before the first)."""
+        return self._leader
+
+    @property
+    def followers(self) -> dict[str, FollowerStats]:
+        """Each follower's last stats, by id."""
+        return dict(self._followers)
+
+    def _on_stats(self, key: str, data: Any) -> None:
+        """``leader/stats`` and every follower's (one subscriber: ``*/stats`` has both)."""
+        if key == self._keys.leader_stats:
+            self._leader = typed(LeaderSummary, data)
+            self._hand_on(self._leader)
+            return
+        follower = self._keys.follower_of(key, "stats")
+        if follower is None:
+            raise ValueError("not a follower's stats key")
+        stats = typed(FollowerStats, data)
+        if stats.follower != follower:
+            raise ValueError(f"follower {stats.follower!r:.40} is not the key's {follower!r}")
+        self._followers[follower] = stats
+        self._hand_on(stats)
+
+    def _on_deliveries(self, key: str, data: Any) -> None:
+        good, bad = parse_deliveries(data)
+        for reason in bad:
+            self.bad_input.report(key, reason)
+        for follower, generated_at, delivered_at in good:
+            self._hand_on(DeliveryRecord(follower, generated_at, delivered_at))
+
+    def _hand_on(self, observation: Observation) -> None:
+        if self._emit is not None:
+            self._emit(observation)
+
+    def recv(self, timeout: float | None = None) -> Observation | None:
+        """The next observation from this observer's channel (see ``Channel.recv``)."""
+        return reading(self._channel, "observer").recv(timeout)
+
+    def try_recv(self) -> Observation | None:
+        """The next observation from this observer's channel, or None at once."""
+        return reading(self._channel, "observer").try_recv()
+
+    def __iter__(self) -> Iterator[Observation]:
+        """Every observation from this observer's channel until ``close()``."""
+        return iter(reading(self._channel, "observer"))
+
+    def close(self) -> None:
+        """Stop watching; a channel's observations kept so far can still be read."""
+        if self._channel is not None:
+            self._channel.close()  # a Zenoh thread waiting on a full FIFO goes on
+        self._watch.close()
+
+    def __enter__(self) -> Observer:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        self.close()
