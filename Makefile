@@ -11,8 +11,8 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 test: $(STAMP)
-	$(PY) -m ruff check wiswarm_zenoh apps tests benchmarks
-	$(PY) -m mypy --strict wiswarm_zenoh apps
+	$(PY) -m ruff check wiswarm_zenoh apps tests benchmarks examples
+	$(PY) -m mypy --strict wiswarm_zenoh apps examples
 	$(PY) -m pytest
 
 demo: $(STAMP)
