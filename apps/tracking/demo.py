@@ -39,7 +39,8 @@ from apps.tracking.tracker import TrackerConfig
 from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
 from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
 from apps.tracking.world import MOTIONS, Motion, WorldConfig
-from wiswarm_zenoh.core import POLICIES, LeaderConfig
+from wiswarm_zenoh import Leader, LeaderConfig
+from wiswarm_zenoh.core import POLICIES
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
 from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
 from wiswarm_zenoh.recording import SwarmRecording
@@ -57,7 +58,6 @@ from wiswarm_zenoh.testbed import (
 )
 from wiswarm_zenoh.transport import (
     Children,
-    LeaderNode,
     LiveTable,
     SessionSpec,
     free_tcp_port,
@@ -197,13 +197,13 @@ class _Leader:
 @contextmanager
 def _open_leader(session: zenoh.Session, options: DemoOptions,
                  reception: Reception) -> Iterator[_Leader]:
-    """The leader's transport: a LeaderNode polling, or the push baseline's subscriber."""
+    """The leader's transport: a ``Leader`` polling, or the push baseline's subscriber."""
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
-        with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered,
-                        bridge=options.ros2) as node:
+        with Leader(session, SWARM, reception.on_delivered, config=config,
+                    bridge=options.ros2) as node:
             yield _Leader(
-                node, lambda: {r.follower: r.weight for r in node.latest},
+                node, lambda: {r.follower: r.weight for r in node.stats},
                 lambda: node.polls,
                 CarMarkers(node.bridge) if isinstance(node.bridge, Ros2Bridge) else None,
             )

@@ -32,7 +32,7 @@ log = logging.getLogger(__name__)
 
 
 class ControlSink(Protocol):
-    """Where plans go: the LeaderNode (polling) or the push baseline's control publisher."""
+    """Where plans go: the ``Leader`` (polling) or the push baseline's control publisher."""
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None: ...
 

@@ -57,7 +57,7 @@ class Reception:
             self._rows = []
 
     def on_delivered(self, event: Delivered) -> None:
-        """The LeaderNode's delivery callback."""
+        """The ``Leader``'s delivery handler."""
         self.receive(event.follower, event.payload, event.generated_at,
                      event.delivered_at)
 

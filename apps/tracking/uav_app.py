@@ -1,7 +1,7 @@
 """A sensing-UAV process (paper, Section III-C): camera frames out, waypoints in.
 
 The camera takes a frame at `rate_hz` (100 fps for WiSwarm, as in the paper) and offers
-it to the middleware: a FollowerNode with a LIFO queue of one frame, answering polls,
+it to the middleware: a ``Follower`` with a LIFO queue of one frame, answering polls,
 or the push baseline's FIFO sender. Control information goes through the waypoint
 guard (a NaN or out-of-arena plan is rejected with a logged reason and the last safe
 plan is flown). A sampler measures tracking error against the car's true position,
@@ -35,13 +35,12 @@ from apps.tracking.metrics import UavMetrics
 from apps.tracking.render import Renderer
 from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
 from apps.tracking.world import World, WorldConfig
+from wiswarm_zenoh import Follower, FollowerConfig, Waypoint
 from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
-from wiswarm_zenoh.core import FollowerConfig, Waypoint
 from wiswarm_zenoh.transport import (
     SUPERVISION_PERIOD,
     BadInputLog,
     ControlListener,
-    FollowerNode,
     ReadySignal,
     SessionSpec,
     StopSignal,
@@ -176,7 +175,7 @@ class UavRuntime:
         self.frames_in_window = 0
         self.frames_missed = 0
         self._stack = ExitStack()
-        self._node: FollowerNode | None = None
+        self._node: Follower | None = None
         self._bad_control: list[BadInputLog] = []
         try:
             self.vehicle: Vehicle = self._stack.enter_context(open_vehicle(
@@ -200,9 +199,9 @@ class UavRuntime:
         """The middleware end: a follower node (LIFO of one) or the push sender (FIFO)."""
         options = self.options
         if options.system == "wiswarm":
-            node = FollowerNode(session, options.swarm, options.uav,
-                                FollowerConfig(queue="lifo", capacity=1),
-                                on_control=self._on_control)
+            node = Follower(session, options.swarm, options.uav,
+                            config=FollowerConfig(queue="lifo", capacity=1),
+                            on_control=self._on_control)
             self._stack.callback(node.close)
             self._node = node
             self._bad_control.append(node.bad_input)

@@ -9,6 +9,7 @@ from types import TracebackType
 import zenoh
 
 from wiswarm_zenoh.core import FollowerConfig, Waypoint
+from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 
 
@@ -56,6 +57,11 @@ class Follower:
     def offered(self) -> int:
         """Updates offered so far (by ``offer`` or the sampler)."""
         return self._node.offered
+
+    @property
+    def bad_input(self) -> BadInputLog:
+        """Malformed polls and control messages from the network, counted by key."""
+        return self._node.bad_input
 
     def offer(self, payload: bytes, generated_at: float | None = None) -> bool:
         """Queue ``payload`` for the next poll, stamped now (or at ``generated_at``,

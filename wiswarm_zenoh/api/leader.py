@@ -12,7 +12,8 @@ import zenoh
 
 from wiswarm_zenoh.api.handlers import Handler, deliver_to, reading
 from wiswarm_zenoh.core import Delivered, FollowerStats, LeaderConfig
-from wiswarm_zenoh.transport.bridge import BridgeOptions
+from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.bridge import BridgeOptions, LeaderBridge
 from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
 
@@ -101,6 +102,16 @@ class Leader:
     def summary(self) -> LeaderSummary:
         """The last ``wiswarm/<swarm>/leader/stats`` published."""
         return self._node.summary
+
+    @property
+    def bridge(self) -> LeaderBridge | None:
+        """The bridge opened from the ``bridge`` options (a ``Ros2Bridge``), or None."""
+        return self._node.bridge
+
+    @property
+    def bad_input(self) -> BadInputLog:
+        """Malformed replies from the network, counted by key expression."""
+        return self._node.bad_input
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """Steer ``follower``: its waypoints (``x, y, z, yaw`` each) go out with the next
