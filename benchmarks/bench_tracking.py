@@ -20,9 +20,9 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from apps.tracking import demo
-from apps.tracking.report import summarise, write_outputs
-from apps.tracking.uav_app import SYSTEMS, System
+from wiswarm_apps.tracking import demo
+from wiswarm_apps.tracking.report import summarise, write_outputs
+from wiswarm_apps.tracking.uav_app import SYSTEMS, System
 
 AOI_TARGET_S = 0.050
 ERROR_TARGET_M = 0.4

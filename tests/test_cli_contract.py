@@ -75,7 +75,7 @@ STARTERS = (
     "wiswarm_zenoh.cli.security.init", "wiswarm_zenoh.cli.security.add_follower",
     "wiswarm_zenoh.cli.edge_cloud.run_edge_cloud", "wiswarm_zenoh.cli.dashboard.serve",
     "wiswarm_zenoh.cli.recording.run_recording",
-    "apps.tracking.demo.run",
+    "wiswarm_apps.tracking.demo.run",
 )
 
 

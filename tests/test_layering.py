@@ -51,7 +51,7 @@ def test_applications_import_only_what_the_packages_export(module: Path) -> None
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_no_private_name_is_imported(module: Path) -> None:
     private = [f"{m}.{n}" for m, names in imports(module) for n in names
-               if m.startswith(("wiswarm_zenoh", "apps")) and n.startswith("_")]
+               if m.startswith(("wiswarm_zenoh", "wiswarm_apps")) and n.startswith("_")]
     assert not private, f"{module.name} imports {private}"
 
 

@@ -21,8 +21,8 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from apps.tracking.plots import GIF_RESOLUTION_M
-from apps.tracking.world import WorldConfig
+from wiswarm_apps.tracking.plots import GIF_RESOLUTION_M
+from wiswarm_apps.tracking.world import WorldConfig
 
 ROOT = Path(__file__).resolve().parents[2]
 NOBODY = 65534
@@ -54,7 +54,8 @@ def _unprivileged() -> tuple[tuple[str, ...], str]:
                 "nobody may run")
 
 
-def _env(home: Path, paths: tuple[str, ...] = (str(ROOT), PURELIB)) -> dict[str, str]:
+def _env(home: Path, paths: tuple[str, ...] = (str(ROOT), str(ROOT / "apps"), PURELIB)
+         ) -> dict[str, str]:
     return {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "HOME": str(home),
             "MPLCONFIGDIR": str(home / ".matplotlib"), "LANG": "C.UTF-8",
             "PYTHONPATH": os.pathsep.join(paths)}
@@ -64,13 +65,13 @@ def _readable_code(prefix: tuple[str, ...], python: str, home: Path) -> tuple[st
     """Where user nobody finds the project and its packages: where they are, or, for a
     checkout nobody may enter (a private temporary directory, as a fresh clone's), a
     mirror under ``home`` (packages hard-linked where the file system allows)."""
-    probe = subprocess.run([*prefix, python, "-c", "import wiswarm_zenoh, zenoh, cv2"],
+    probe = subprocess.run([*prefix, python, "-c", "import wiswarm_zenoh, wiswarm_apps, zenoh, cv2"],
                            capture_output=True, check=False, env=_env(home))
     if probe.returncode == 0:
-        return str(ROOT), PURELIB
+        return str(ROOT), str(ROOT / "apps"), PURELIB
     mirror = home / "code"
-    for package in ("wiswarm_zenoh", "apps"):
-        shutil.copytree(ROOT / package, mirror / "src" / package)
+    for package in (ROOT / "wiswarm_zenoh", ROOT / "apps" / "wiswarm_apps"):
+        shutil.copytree(package, mirror / "src" / package.name)
     linked = subprocess.run(["cp", "-al", PURELIB, str(mirror / "packages")],
                             capture_output=True, check=False)
     if linked.returncode != 0:  # another file system: copied instead

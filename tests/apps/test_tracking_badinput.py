@@ -12,13 +12,13 @@ import msgpack
 import numpy as np
 import pytest
 
-from apps.tracking.frames import Frame, encode_frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.leader_app import VisionLoop
-from apps.tracking.reception import Reception
-from apps.tracking.render import Renderer
-from apps.tracking.uav_app import SYSTEMS, System, UavOptions, UavRuntime
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import Frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.leader_app import VisionLoop
+from wiswarm_apps.tracking.reception import Reception
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.uav_app import SYSTEMS, System, UavOptions, UavRuntime
+from wiswarm_apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh.core.messages import VERSION
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec, SwarmKeys
 from wiswarm_zenoh.transport.badinput import BadInputLog

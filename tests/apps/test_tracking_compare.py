@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from apps.tracking.report import compare, comparison_lines, system_entry
+from wiswarm_apps.tracking.report import compare, comparison_lines, system_entry
 
 CHANNEL = {"kind": "user", "rate_bps": 20_000_000}
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 from PIL import Image
 
-from apps.tracking import demo
-from apps.tracking.plots import write_plots
-from apps.tracking.report import MAIN_KEYS, aoi_series, summarise, write_outputs
+from wiswarm_apps.tracking import demo
+from wiswarm_apps.tracking.plots import write_plots
+from wiswarm_apps.tracking.report import MAIN_KEYS, aoi_series, summarise, write_outputs
 
 IN_VIEW_BOUND = 0.9
 Run = tuple[demo.DemoRun, dict[str, dict[str, float]], dict[str, float], Path]

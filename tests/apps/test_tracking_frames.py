@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from apps.tracking.frames import Frame, FrameError, decode_frame, encode_frame
-from apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.frames import Frame, FrameError, decode_frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
 
 CAMERA = CameraModel(width=160, height=160)
 

@@ -9,13 +9,13 @@ from collections.abc import Sequence
 import numpy as np
 import pytest
 
-from apps.tracking.frames import Frame, encode_frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.leader_app import Arrival, CarEstimate, VisionLoop
-from apps.tracking.reception import Reception
-from apps.tracking.render import Renderer
-from apps.tracking.report import aoi_series
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import Frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.leader_app import Arrival, CarEstimate, VisionLoop
+from wiswarm_apps.tracking.reception import Reception
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.report import aoi_series
+from wiswarm_apps.tracking.world import World, WorldConfig
 
 WORLD = World(WorldConfig(n_cars=2, seed=11, duration_s=60))
 RENDERER = Renderer(WORLD)

@@ -10,11 +10,11 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from apps.tracking.geometry import Arena, CameraModel, world_to_ned
-from apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
-from apps.tracking.render import Renderer
-from apps.tracking.sim_vehicle import SimVehicle
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.geometry import Arena, CameraModel, world_to_ned
+from wiswarm_apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.sim_vehicle import SimVehicle
+from wiswarm_apps.tracking.world import World, WorldConfig
 
 TIMEOUT = 5.0
 

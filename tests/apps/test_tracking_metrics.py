@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.metrics import UavMetrics
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.metrics import UavMetrics
 
 
 def test_error_in_metres_and_pixels_and_in_view() -> None:

@@ -7,14 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import Arena, CameraModel, Pose
-from apps.tracking.metrics import UavMetrics
-from apps.tracking.render import Renderer
-from apps.tracking.tracker import CarTracker, TrackerConfig
-from apps.tracking.uav import VirtualUAV
-from apps.tracking.vision import Detection, MarkerDetector
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import Arena, CameraModel, Pose
+from wiswarm_apps.tracking.metrics import UavMetrics
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.tracker import CarTracker, TrackerConfig
+from wiswarm_apps.tracking.uav import VirtualUAV
+from wiswarm_apps.tracking.vision import Detection, MarkerDetector
+from wiswarm_apps.tracking.world import World, WorldConfig
 
 CAMERA = CameraModel()
 BLANK = np.zeros((224, 224), np.uint8)

@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.render import Renderer
-from apps.tracking.uav import VirtualUAV
-from apps.tracking.vision import MarkerDetector
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.uav import VirtualUAV
+from wiswarm_apps.tracking.vision import MarkerDetector
+from wiswarm_apps.tracking.world import World, WorldConfig
 
 WORLD = World(WorldConfig(seed=21, duration_s=60))
 RENDERER = Renderer(WORLD)

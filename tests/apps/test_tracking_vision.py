@@ -7,11 +7,11 @@ import math
 import numpy as np
 import pytest
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.render import OUTSIDE_GRAY, Renderer
-from apps.tracking.vision import MarkerDetector
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.render import OUTSIDE_GRAY, Renderer
+from wiswarm_apps.tracking.vision import MarkerDetector
+from wiswarm_apps.tracking.world import World, WorldConfig
 
 WORLD = World(WorldConfig(seed=11, n_cars=4, duration_s=120))
 RENDERER = Renderer(WORLD)

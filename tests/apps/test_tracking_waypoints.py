@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from apps.tracking.geometry import Arena
-from apps.tracking.waypoints import WaypointError, WaypointGuard, check_waypoints
+from wiswarm_apps.tracking.geometry import Arena
+from wiswarm_apps.tracking.waypoints import WaypointError, WaypointGuard, check_waypoints
 
 ARENA = Arena()
 GOOD = [(1.0, 2.0, 3.0, 2.0), (1.1, 2.1, 3.0, 2.0)]

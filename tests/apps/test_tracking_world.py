@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from apps.tracking.geometry import Arena
-from apps.tracking.world import Motion, World, WorldConfig
+from wiswarm_apps.tracking.geometry import Arena
+from wiswarm_apps.tracking.world import Motion, World, WorldConfig
 
 TIMES = np.linspace(0.0, 300.0, 3001)
 

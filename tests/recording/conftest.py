@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import zenoh
 
-from apps.tracking.frames import Frame, encode_frame
-from apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.frames import Frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
 from tests.dashboard.conftest import loopback
 from tests.transport.helpers import Recorder, Sessions
 from wiswarm_zenoh.core import FollowerConfig

@@ -14,7 +14,7 @@ from mcap.records import Schema
 from mcap_protobuf.decoder import DecoderFactory
 from websockets.sync.client import ClientConnection, connect
 
-from apps.tracking.ros2 import FrameAdapter
+from wiswarm_apps.tracking.ros2 import FrameAdapter
 from wiswarm_zenoh.recording import SwarmRecording
 
 from .conftest import SWARM, Swarm

@@ -1,4 +1,4 @@
-"""The tracking demo in ROS 2 (``apps.tracking.ros2``): a third-party client receives
+"""The tracking demo in ROS 2 (``wiswarm_apps.tracking.ros2``): a third-party client receives
 each frame as ``sensor_msgs/msg/Image`` (mono8, the frame's pixels), the UAV's pose as
 ``geometry_msgs/msg/PoseStamped``, both stamped with the update's generation time on the
 leader's clock, and the car the leader's vision tracks as
@@ -13,13 +13,13 @@ from typing import Any
 
 import pytest
 
-from apps.tracking.frames import Frame, encode_frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.leader_app import VisionLoop
-from apps.tracking.reception import Reception
-from apps.tracking.render import Renderer
-from apps.tracking.ros2 import CarMarkers, FrameAdapter
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import Frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.leader_app import VisionLoop
+from wiswarm_apps.tracking.reception import Reception
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.ros2 import CarMarkers, FrameAdapter
+from wiswarm_apps.tracking.world import World, WorldConfig
 from tests.transport.helpers import Recorder, Sessions, eventually
 from wiswarm_zenoh.core import Delivered, FollowerConfig
 from wiswarm_zenoh.ros2 import Ros2Bridge, Ros2Options

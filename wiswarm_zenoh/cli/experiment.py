@@ -44,7 +44,7 @@ from wiswarm_zenoh.units import format_rate
 STUDY_REGISTRARS: tuple[str, ...] = (
     "wiswarm_zenoh.cli.sim:register_sweep",
     "wiswarm_zenoh.cli.experiment:register_testbed",
-    "apps.tracking.study:register_tracking",
+    "wiswarm_apps.tracking.study:register_tracking",
     "wiswarm_zenoh.cli.edge_cloud:register_edge_cloud",
 )
 

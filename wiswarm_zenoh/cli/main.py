@@ -27,7 +27,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "wiswarm_zenoh.cli.security",
     "wiswarm_zenoh.cli.dashboard",
     "wiswarm_zenoh.cli.recording",
-    "apps.tracking.cli",
+    "wiswarm_apps.tracking.cli",
 )
 
 

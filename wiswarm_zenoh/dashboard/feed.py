@@ -27,7 +27,7 @@ from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys
 log = logging.getLogger(__name__)
 
 EXPERIMENTS = f"{ROOT}/experiments"
-TRACKING_LEAF = "tracking"  # apps.tracking.uav_app's key: wiswarm/<swarm>/<uav>/tracking
+TRACKING_LEAF = "tracking"  # wiswarm_apps.tracking.uav_app's key: wiswarm/<swarm>/<uav>/tracking
 
 
 def points_key(run: str) -> str:

@@ -149,7 +149,7 @@ def _pairs(value: Any, name: str, width: int, most: int) -> list[list[float]]:
 
 
 def parse_tracking(data: Any, uav: str) -> Record:
-    """``wiswarm/<swarm>/<uav>/tracking`` (``apps.tracking.uav_app``): where the UAV, its
+    """``wiswarm/<swarm>/<uav>/tracking`` (``wiswarm_apps.tracking.uav_app``): where the UAV, its
     car, its camera's footprint and its waypoints are, for the map; and the live row."""
     record = _object(data, "a tracking record")
     if record.get("uav", uav) != uav:

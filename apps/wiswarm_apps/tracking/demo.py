@@ -29,16 +29,16 @@ from typing import Literal
 
 import zenoh
 
-from apps.tracking.board import TrackingBoard, table_lines
-from apps.tracking.geometry import CameraModel
-from apps.tracking.leader_app import CarEstimate, ControlSink, VisionLoop, VisionStats
-from apps.tracking.push import PushLeader
-from apps.tracking.reception import AoISummary, DeliveryRow, Reception
-from apps.tracking.ros2 import CarMarkers, FrameAdapter
-from apps.tracking.tracker import TrackerConfig
-from apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
-from apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
-from apps.tracking.world import MOTIONS, Motion, WorldConfig
+from wiswarm_apps.tracking.board import TrackingBoard, table_lines
+from wiswarm_apps.tracking.geometry import CameraModel
+from wiswarm_apps.tracking.leader_app import CarEstimate, ControlSink, VisionLoop, VisionStats
+from wiswarm_apps.tracking.push import PushLeader
+from wiswarm_apps.tracking.reception import AoISummary, DeliveryRow, Reception
+from wiswarm_apps.tracking.ros2 import CarMarkers, FrameAdapter
+from wiswarm_apps.tracking.tracker import TrackerConfig
+from wiswarm_apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
+from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
+from wiswarm_apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh import Leader, LeaderConfig
 from wiswarm_zenoh.core import POLICIES
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard

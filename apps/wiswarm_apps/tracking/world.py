@@ -14,7 +14,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from apps.tracking.geometry import Arena
+from wiswarm_apps.tracking.geometry import Arena
 
 Motion = Literal["random_walk", "polygon"]
 MOTIONS: tuple[Motion, ...] = ("random_walk", "polygon")

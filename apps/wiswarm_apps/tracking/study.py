@@ -19,8 +19,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from apps.tracking import demo
-from apps.tracking.report import summarise
+from wiswarm_apps.tracking import demo
+from wiswarm_apps.tracking.report import summarise
 from wiswarm_zenoh.options import (
     COUNTS,
     SEED,

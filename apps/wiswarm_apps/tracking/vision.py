@@ -13,9 +13,9 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import GrayImage
-from apps.tracking.render import ARUCO_DICTIONARY
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import GrayImage
+from wiswarm_apps.tracking.render import ARUCO_DICTIONARY
 
 
 @dataclass(frozen=True)

@@ -22,10 +22,10 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Protocol
 
-from apps.tracking.frames import FrameError, decode_frame
-from apps.tracking.geometry import Arena, CameraModel
-from apps.tracking.tracker import CarTracker, Plan, TrackerConfig
-from apps.tracking.vision import MarkerDetector
+from wiswarm_apps.tracking.frames import FrameError, decode_frame
+from wiswarm_apps.tracking.geometry import Arena, CameraModel
+from wiswarm_apps.tracking.tracker import CarTracker, Plan, TrackerConfig
+from wiswarm_apps.tracking.vision import MarkerDetector
 from wiswarm_zenoh.transport import BadInputLog, Freshest
 
 log = logging.getLogger(__name__)

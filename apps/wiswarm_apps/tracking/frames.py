@@ -14,7 +14,7 @@ from typing import Any
 import msgpack
 import numpy as np
 
-from apps.tracking.geometry import CameraModel, GrayImage, Pose
+from wiswarm_apps.tracking.geometry import CameraModel, GrayImage, Pose
 from wiswarm_zenoh.core import WireError
 
 FRAME_VERSION = 1

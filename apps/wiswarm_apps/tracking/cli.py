@@ -18,9 +18,9 @@ import logging
 import time
 from pathlib import Path
 
-from apps.tracking import demo
-from apps.tracking.plots import write_comparison, write_plots
-from apps.tracking.report import (
+from wiswarm_apps.tracking import demo
+from wiswarm_apps.tracking.plots import write_comparison, write_plots
+from wiswarm_apps.tracking.report import (
     compare,
     comparison_lines,
     summarise,
@@ -28,10 +28,10 @@ from apps.tracking.report import (
     write_outputs,
     write_summary,
 )
-from apps.tracking.ros2 import FrameAdapter
-from apps.tracking.uav_app import SYSTEMS, System
-from apps.tracking.vehicles import VEHICLE_KINDS
-from apps.tracking.world import MOTIONS
+from wiswarm_apps.tracking.ros2 import FrameAdapter
+from wiswarm_apps.tracking.uav_app import SYSTEMS, System
+from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS
+from wiswarm_apps.tracking.world import MOTIONS
 from wiswarm_zenoh.core import POLICIES
 from wiswarm_zenoh.dashboard import DEFAULT_PORT
 from wiswarm_zenoh.options import (

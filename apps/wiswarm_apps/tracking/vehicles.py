@@ -11,13 +11,13 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Literal
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import CameraModel, Pose, world_to_ned, yaw_to_ned
-from apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
-from apps.tracking.render import Renderer
-from apps.tracking.sim_vehicle import SimVehicle
-from apps.tracking.uav import VirtualUAV
-from apps.tracking.waypoints import WaypointGuard
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose, world_to_ned, yaw_to_ned
+from wiswarm_apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.sim_vehicle import SimVehicle
+from wiswarm_apps.tracking.uav import VirtualUAV
+from wiswarm_apps.tracking.waypoints import WaypointGuard
 
 VehicleKind = Literal["virtual", "mavlink-sim"]
 VEHICLE_KINDS: tuple[VehicleKind, ...] = ("virtual", "mavlink-sim")

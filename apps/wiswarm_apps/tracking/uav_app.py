@@ -29,12 +29,12 @@ from typing import Literal
 import numpy as np
 import zenoh
 
-from apps.tracking.frames import encode_frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.metrics import UavMetrics
-from apps.tracking.render import Renderer
-from apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
-from apps.tracking.world import World, WorldConfig
+from wiswarm_apps.tracking.frames import encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.metrics import UavMetrics
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
+from wiswarm_apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh import Follower, FollowerConfig, Waypoint
 from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
 from wiswarm_zenoh.transport import (

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Shared geometry: the arena, a UAV pose and a downward pinhole camera.
 
-Conventions used everywhere in apps.tracking (so renderer and vision agree exactly):
+Conventions used everywhere in wiswarm_apps.tracking (so renderer and vision agree exactly):
 world x points east in [0, width], y north in [0, height], z up (altitude); yaw is
 counter-clockwise from +x. A frame pixel (u, v) has u to the right and v down, with
 pixel centres at integer coordinates. The camera looks straight down; the top of the

@@ -17,9 +17,9 @@ from typing import Any
 
 import zenoh
 
-from apps.tracking.leader_app import VisionStats
-from apps.tracking.reception import AoISummary
-from apps.tracking.uav_app import TRACKING_LEAF
+from wiswarm_apps.tracking.leader_app import VisionStats
+from wiswarm_apps.tracking.reception import AoISummary
+from wiswarm_apps.tracking.uav_app import TRACKING_LEAF
 from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
 
 log = logging.getLogger(__name__)

@@ -19,16 +19,16 @@ from typing import Any
 
 from pymavlink import mavutil
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import (
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import (
     Arena,
     CameraModel,
     Pose,
     pose_from_ned,
     world_to_ned,
 )
-from apps.tracking.render import Renderer
-from apps.tracking.waypoints import WaypointGuard
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.waypoints import WaypointGuard
 
 log = logging.getLogger(__name__)
 mavlink = mavutil.mavlink

@@ -11,10 +11,10 @@ import math
 import threading
 from collections.abc import Sequence
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.render import Renderer
-from apps.tracking.waypoints import WaypointGuard
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.waypoints import WaypointGuard
 
 MAX_STEP_S = 0.02  # integration step: the target moves little within one step
 

@@ -16,11 +16,11 @@ from matplotlib.patches import Rectangle
 from numpy.typing import NDArray
 from PIL import Image
 
-from apps.tracking.demo import DemoRun
-from apps.tracking.geometry import CameraModel, Pose
-from apps.tracking.render import Renderer
-from apps.tracking.report import aoi_series
-from apps.tracking.world import World
+from wiswarm_apps.tracking.demo import DemoRun
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.render import Renderer
+from wiswarm_apps.tracking.report import aoi_series
+from wiswarm_apps.tracking.world import World
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt

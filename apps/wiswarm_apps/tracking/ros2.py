@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from apps.tracking.frames import decode_frame
-from apps.tracking.leader_app import CarEstimate
+from wiswarm_apps.tracking.frames import decode_frame
+from wiswarm_apps.tracking.leader_app import CarEstimate
 from wiswarm_zenoh.ros2 import (
     IMAGE,
     POSE_STAMPED,

@@ -19,7 +19,7 @@ from contextlib import ExitStack
 
 import zenoh
 
-from apps.tracking.reception import Reception
+from wiswarm_apps.tracking.reception import Reception
 from wiswarm_zenoh.baselines import Receiver
 from wiswarm_zenoh.core import Control, Waypoint, encode_control, validate_waypoints
 from wiswarm_zenoh.transport import SwarmKeys

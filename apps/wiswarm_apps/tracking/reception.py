@@ -12,7 +12,7 @@ import threading
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from apps.tracking.leader_app import Arrival, VisionLoop
+from wiswarm_apps.tracking.leader_app import Arrival, VisionLoop
 from wiswarm_zenoh.core import AoITracker, Delivered
 
 

@@ -21,9 +21,9 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from apps.tracking.demo import DemoOptions, DemoRun
-from apps.tracking.reception import DeliveryRow
-from apps.tracking.uav_app import SAMPLE_FIELDS
+from wiswarm_apps.tracking.demo import DemoOptions, DemoRun
+from wiswarm_apps.tracking.reception import DeliveryRow
+from wiswarm_apps.tracking.uav_app import SAMPLE_FIELDS
 from wiswarm_zenoh.testbed import ChannelSpec
 
 MAIN_KEYS = ("mean_aoi_s", "p95_aoi_s", "mean_tracking_error_m", "in_view_share")

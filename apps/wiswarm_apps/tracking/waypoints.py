@@ -12,7 +12,7 @@ import math
 import threading
 from collections.abc import Sequence
 
-from apps.tracking.geometry import Arena
+from wiswarm_apps.tracking.geometry import Arena
 from wiswarm_zenoh.core import MAX_WAYPOINTS, Waypoint
 
 log = logging.getLogger(__name__)

@@ -17,9 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from apps.tracking.frames import Frame
-from apps.tracking.geometry import Arena
-from apps.tracking.vision import Detection
+from wiswarm_apps.tracking.frames import Frame
+from wiswarm_apps.tracking.geometry import Arena
+from wiswarm_apps.tracking.vision import Detection
 from wiswarm_zenoh.core import Waypoint
 
 

@@ -13,7 +13,7 @@ import math
 import cv2
 import numpy as np
 
-from apps.tracking.geometry import (
+from wiswarm_apps.tracking.geometry import (
     Affine,
     Arena,
     CameraModel,
@@ -22,7 +22,7 @@ from apps.tracking.geometry import (
     compose_affine,
     invert_affine,
 )
-from apps.tracking.world import TAG_CELLS, World
+from wiswarm_apps.tracking.world import TAG_CELLS, World
 
 ARUCO_DICTIONARY = cv2.aruco.DICT_4X4_50
 OUTSIDE_GRAY = 128  # what a camera sees beyond the arena's edge
