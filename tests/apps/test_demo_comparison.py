@@ -65,7 +65,8 @@ def _readable_code(prefix: tuple[str, ...], python: str, home: Path) -> tuple[st
     """Where user nobody finds the project and its packages: where they are, or, for a
     checkout nobody may enter (a private temporary directory, as a fresh clone's), a
     mirror under ``home`` (packages hard-linked where the file system allows)."""
-    probe = subprocess.run([*prefix, python, "-c", "import wiswarm_zenoh, wiswarm_apps, zenoh, cv2"],
+    probe = subprocess.run([*prefix, python, "-c",
+                            "import wiswarm_zenoh, wiswarm_apps, zenoh, cv2"],
                            capture_output=True, check=False, env=_env(home))
     if probe.returncode == 0:
         return str(ROOT), str(ROOT / "apps"), PURELIB

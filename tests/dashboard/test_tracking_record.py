@@ -9,10 +9,10 @@ import time
 
 import pytest
 
+from tests.transport.helpers import Samples, Sessions, wait_until_known
 from wiswarm_apps.tracking.render import Renderer
 from wiswarm_apps.tracking.uav_app import SYSTEMS, System, UavOptions, UavRuntime, tracking_key
 from wiswarm_apps.tracking.world import World, WorldConfig
-from tests.transport.helpers import Samples, Sessions, wait_until_known
 from wiswarm_zenoh.dashboard.records import parse_tracking
 from wiswarm_zenoh.transport import SwarmKeys
 

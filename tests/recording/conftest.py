@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import zenoh
 
-from wiswarm_apps.tracking.frames import Frame, encode_frame
-from wiswarm_apps.tracking.geometry import CameraModel, Pose
 from tests.dashboard.conftest import loopback
 from tests.transport.helpers import Recorder, Sessions
+from wiswarm_apps.tracking.frames import Frame, encode_frame
+from wiswarm_apps.tracking.geometry import CameraModel, Pose
 from wiswarm_zenoh.core import FollowerConfig
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SwarmKeys, free_tcp_port
 

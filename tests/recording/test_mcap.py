@@ -12,8 +12,8 @@ from typing import Any
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-from wiswarm_apps.tracking.ros2 import FrameAdapter
 from tests.transport.helpers import Samples, eventually, wait_until_known
+from wiswarm_apps.tracking.ros2 import FrameAdapter
 from wiswarm_zenoh.recording import SwarmRecording
 from wiswarm_zenoh.transport import SwarmKeys
 

@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 
+from tests.transport.helpers import Recorder, Sessions, eventually
 from wiswarm_apps.tracking.frames import Frame, encode_frame
 from wiswarm_apps.tracking.geometry import CameraModel, Pose
 from wiswarm_apps.tracking.leader_app import VisionLoop
@@ -20,7 +21,6 @@ from wiswarm_apps.tracking.reception import Reception
 from wiswarm_apps.tracking.render import Renderer
 from wiswarm_apps.tracking.ros2 import CarMarkers, FrameAdapter
 from wiswarm_apps.tracking.world import World, WorldConfig
-from tests.transport.helpers import Recorder, Sessions, eventually
 from wiswarm_zenoh.core import Delivered, FollowerConfig
 from wiswarm_zenoh.ros2 import Ros2Bridge, Ros2Options
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode
