@@ -5,7 +5,7 @@ from __future__ import annotations
 import random
 
 from wiswarm_zenoh.core import Follower, Leader, LeaderConfig
-from wiswarm_zenoh.memlink import MemoryLink
+from wiswarm_zenoh.sim.memlink import MemoryLink
 
 IDS = [f"uav{i}" for i in range(5)]
 LATENCY = 0.002

@@ -1,7 +1,7 @@
 """A leader and its followers stepping over an in-memory lossy link, in virtual time.
 
 The smallest shell around the core: no network, no clock. Tests use it to check the
-protocol end to end, and ``python -m wiswarm_zenoh.memlink`` shows AoI per follower.
+protocol end to end, and ``python -m wiswarm_zenoh.sim.memlink`` shows AoI per follower.
 """
 
 from __future__ import annotations
