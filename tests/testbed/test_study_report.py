@@ -8,12 +8,12 @@ from pathlib import Path
 
 from matplotlib.container import ErrorbarContainer
 
+from wiswarm_zenoh.experiments.sweep import METRICS, Point
+from wiswarm_zenoh.experiments.sweep_report import figure_against_n
+from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
-from wiswarm_zenoh.sim.report import figure_against_n
-from wiswarm_zenoh.sim.sweep import METRICS, Point
 from wiswarm_zenoh.testbed.run import RunOutcome
 from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
-from wiswarm_zenoh.testbed.study_report import write_study
 
 SYSTEMS = ("push-block", "push-drop", "udp", "tcp")
 

@@ -15,6 +15,8 @@ from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, study_by_n
+from wiswarm_zenoh.experiments.sweep import PAPER_NS
+from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.options import (
     COUNTS,
     OneLineParser,
@@ -34,9 +36,7 @@ from wiswarm_zenoh.options import (
     wifi_spec,
     writable_dir,
 )
-from wiswarm_zenoh.sim.sweep import PAPER_NS
 from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
-from wiswarm_zenoh.testbed.study_report import write_study
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 from wiswarm_zenoh.units import format_rate
 

@@ -11,6 +11,9 @@ from typing import Any
 
 from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, sweep_by_n
+from wiswarm_zenoh.experiments.sweep import BASELINES as SWEEP_BASELINES
+from wiswarm_zenoh.experiments.sweep import PAPER_NS, SweepConfig, run_sweep, summarise
+from wiswarm_zenoh.experiments.sweep_report import write_report
 from wiswarm_zenoh.options import (
     COUNTS,
     PROBABILITIES,
@@ -28,7 +31,6 @@ from wiswarm_zenoh.options import (
 )
 from wiswarm_zenoh.sim.link import LinkParams, LinkScenario, run_link
 from wiswarm_zenoh.sim.metrics import WifiResult
-from wiswarm_zenoh.sim.report import write_report
 from wiswarm_zenoh.sim.scenario import (
     DEFAULT_RELIABILITY,
     PAPER_FRAME_BYTES,
@@ -37,8 +39,6 @@ from wiswarm_zenoh.sim.scenario import (
     run_wifi,
 )
 from wiswarm_zenoh.sim.slotted import DEFAULT_SLOTS, SlottedSpec, run_slotted
-from wiswarm_zenoh.sim.sweep import BASELINES as SWEEP_BASELINES
-from wiswarm_zenoh.sim.sweep import PAPER_NS, SweepConfig, run_sweep, summarise
 from wiswarm_zenoh.units import format_rate
 
 

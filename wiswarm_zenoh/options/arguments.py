@@ -20,7 +20,7 @@ from typing import Generic, TypeVar
 from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.core.in_flight import MOST as MOST_IN_FLIGHT
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES
-from wiswarm_zenoh.sim.sweep import PAPER_RATES
+from wiswarm_zenoh.experiments.sweep import PAPER_RATES
 from wiswarm_zenoh.transport.keys import check_follower, check_name
 from wiswarm_zenoh.transport.zenoh_config import (
     PROTOCOLS,

@@ -33,7 +33,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from wiswarm_zenoh.sim.sweep import PAPER_NS, PAPER_RATES, check_study
+from wiswarm_zenoh.experiments.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import (
     SYSTEMS,

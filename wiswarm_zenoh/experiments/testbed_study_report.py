@@ -9,10 +9,15 @@ from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 
+from wiswarm_zenoh.experiments.sweep import Point, point_of
+from wiswarm_zenoh.experiments.sweep_report import (
+    gains_table,
+    plot_against_n,
+    write_runs_csv,
+    write_summary_csv,
+)
 from wiswarm_zenoh.sim.link import LinkParams, link_curve
 from wiswarm_zenoh.sim.metrics import WifiResult
-from wiswarm_zenoh.sim.report import gains_table, plot_against_n, write_runs_csv, write_summary_csv
-from wiswarm_zenoh.sim.sweep import Point, point_of
 from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 from wiswarm_zenoh.units import format_rate
 

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from wiswarm_zenoh.experiments.sweep import BASELINES, METRICS, Point, SweepConfig
 from wiswarm_zenoh.sim.metrics import WifiResult
-from wiswarm_zenoh.sim.sweep import BASELINES, METRICS, Point, SweepConfig
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn, not with the module
     from matplotlib.figure import Figure
