@@ -1,10 +1,14 @@
-"""Layers: nothing in the middleware imports the CLI above it; applications use only what
-the middleware's packages export (never a module inside them); tests use no private
-names. Read from the sources, so a new import anywhere is judged."""
+"""Layers: nothing in the middleware imports the CLI above it, nor an application (only
+the CLI runs them); ``transport`` is the Zenoh shell and imports no program, experiment
+or tool; the CLI imports what it runs (no module named in a string for ``importlib``);
+applications use only what the middleware's packages export (never a module inside
+them); tests use no private names. Read from the sources, so a new import anywhere is
+judged."""
 
 from __future__ import annotations
 
 import ast
+import re
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -33,11 +37,49 @@ def sources(directory: Path) -> list[Path]:
     return sorted(directory.rglob("*.py"))
 
 
+# What the Zenoh shell may import from the middleware: the core and the small helpers
+# at the bottom (``security`` for the TLS checks of a session's flags).
+SHELL_BELOW = {"wiswarm_zenoh.core", "wiswarm_zenoh.transport", "wiswarm_zenoh.units",
+               "wiswarm_zenoh.usage", "wiswarm_zenoh.security"}
+
+
 @pytest.mark.parametrize("module", [p for p in sources(PACKAGE) if "cli" not in p.parts],
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_nothing_below_the_cli_imports_it(module: Path) -> None:
     upward = [m for m, _ in imports(module) if m.startswith("wiswarm_zenoh.cli")]
     assert not upward, f"{module.name} imports {upward}"
+
+
+@pytest.mark.parametrize("module", [p for p in sources(PACKAGE) if "cli" not in p.parts],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_middleware_imports_no_application(module: Path) -> None:
+    upward = [m for m, _ in imports(module) if m.split(".")[0] in ("wiswarm_apps", "apps")]
+    assert not upward, f"{module.name} imports {upward}"
+
+
+@pytest.mark.parametrize("module", sources(PACKAGE / "transport"),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_transport_is_the_zenoh_shell_only(module: Path) -> None:
+    beyond = [m for m, _ in imports(module) if m.startswith("wiswarm_zenoh")
+              and ".".join(m.split(".")[:2]) not in SHELL_BELOW]
+    assert not beyond, f"{module.name} imports {beyond}"
+
+
+@pytest.mark.parametrize("module", sources(PACKAGE / "cli"), ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_cli_imports_what_it_runs(module: Path) -> None:
+    """No module loaded by name: every link from the CLI is an import this test sees."""
+    tree = ast.parse(module.read_text(encoding="utf-8"))
+    named = [node.value for node in ast.walk(tree) if isinstance(node, ast.Constant)
+             and isinstance(node.value, str)
+             and re.fullmatch(r"(wiswarm_zenoh|wiswarm_apps|apps)(\.\w+)+(:\w+)?", node.value)]
+    assert not named, f"{module.name} names modules in strings: {named}"
+    assert "importlib" not in {m.split(".")[0] for m, _ in imports(module)}
+
+
+def test_the_cli_reaches_the_application_and_the_studies() -> None:
+    """The links the CLI used to make by name are imports now."""
+    linked = {m for path in sources(PACKAGE / "cli") for m, _ in imports(path)}
+    assert {"wiswarm_apps.tracking", "wiswarm_apps.tracking.study"} <= linked
 
 
 @pytest.mark.parametrize("module", sources(ROOT / "apps"), ids=lambda p: str(p.relative_to(ROOT)))

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli_main
-from wiswarm_zenoh.cli import nodes  # noqa: F401 - imported now: see nodes_only
+from wiswarm_zenoh.cli import nodes
 from wiswarm_zenoh.transport.runners import DeliveryRecord
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
@@ -23,7 +23,7 @@ def nodes_only(monkeypatch: pytest.MonkeyPatch) -> None:
     """The middleware's subcommands only (the tracking app's are not needed here). Their
     module is imported at collection, above: LiveTable's default stream is the sys.stdout
     of that moment, which must outlive each test's own capture."""
-    monkeypatch.setattr(cli_main, "SUBCOMMAND_MODULES", ("wiswarm_zenoh.cli.nodes",))
+    monkeypatch.setattr(cli_main, "every_command", lambda: (nodes.register,))
 
 
 @pytest.fixture

@@ -23,8 +23,8 @@ from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 from .helpers import WAIT
 
 # The CLI with only the modules used here: a quicker start than all of them.
-ENTRY = ("import sys, wiswarm_zenoh.cli.main as m; m.SUBCOMMAND_MODULES = "
-         "('wiswarm_zenoh.cli.nodes', 'wiswarm_zenoh.cli.security'); sys.exit(m.main())")
+ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes, security; "
+         "sys.exit(m.main(registrars=(nodes.register, security.register)))")
 
 
 def _wiswarm(*argv: str) -> list[str]:

@@ -10,14 +10,6 @@ import pytest
 
 from wiswarm_zenoh.cli import main as cli
 
-MODULE = "wiswarm_zenoh.cli.sim"
-
-
-@pytest.fixture(autouse=True)
-def _registered(monkeypatch: pytest.MonkeyPatch) -> None:
-    if MODULE not in cli.SUBCOMMAND_MODULES:
-        monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", (*cli.SUBCOMMAND_MODULES, MODULE))
-
 
 def _json(capsys: pytest.CaptureFixture[str], argv: list[str]) -> dict[str, object]:
     assert cli.main(argv) == 0

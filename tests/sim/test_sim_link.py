@@ -31,13 +31,6 @@ FULL = 1514.0  # a full-size packet as tbf counts it: 1500 B of IP and the Ether
 REPLY = PAPER_FRAME_BYTES + 135  # a reply carrying a whole frame: the core's header
 # ... over Zenoh's TCP link: 35 segments, each with 52 B of TCP/IP and 14 B of Ethernet.
 REPLY_WIRE = REPLY + 35 * (52 + 14)
-MODULE = "wiswarm_zenoh.cli.sim"
-
-
-@pytest.fixture(autouse=True)
-def _registered(monkeypatch: pytest.MonkeyPatch) -> None:
-    if MODULE not in cli.SUBCOMMAND_MODULES:
-        monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", (*cli.SUBCOMMAND_MODULES, MODULE))
 
 
 def _run(**kwargs: object) -> WifiResult:

@@ -3,6 +3,7 @@ writes its files, and Ctrl-C leaves no process behind."""
 
 from __future__ import annotations
 
+import functools
 import io
 import os
 import select
@@ -14,19 +15,19 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli_main
+from wiswarm_zenoh.cli import nodes
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
 from .helpers import WAIT
 
-ENTRY = ("import sys, wiswarm_zenoh.cli.main as m; "
-         "m.SUBCOMMAND_MODULES = ('wiswarm_zenoh.cli.nodes',); sys.exit(m.main())")
+ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes; "
+         "sys.exit(m.main(registrars=(nodes.register,)))")
 
 
 @pytest.fixture
-def wiswarm(monkeypatch: pytest.MonkeyPatch) -> object:
-    monkeypatch.setattr(cli_main, "SUBCOMMAND_MODULES", ("wiswarm_zenoh.cli.nodes",))
-    return cli_main.main
+def wiswarm() -> object:
+    return functools.partial(cli_main.main, registrars=(nodes.register,))
 
 
 @pytest.mark.parametrize(("argv", "message"), [

@@ -1,14 +1,13 @@
 """``wiswarm experiment sweep|testbed|...``: the paper's experiments.
 
 The group gathers studies from several modules (the simulator's sweep, the testbed's
-study here, the tracking application's flights), each adding its parser through a
-``register_*(studies)`` function named in STUDY_REGISTRARS.
+study here, the tracking application's flights, the edge-cloud runs), each adding its
+parser through a ``register_*(studies)`` function.
 """
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import sys
 import time
 from pathlib import Path
@@ -40,23 +39,19 @@ from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.transport.frames import FRAME_BYTES
 from wiswarm_zenoh.units import format_rate
 
-# "module:function" adding one study to the ``experiment`` group's subparsers.
-STUDY_REGISTRARS: tuple[str, ...] = (
-    "wiswarm_zenoh.cli.sim:register_sweep",
-    "wiswarm_zenoh.cli.experiment:register_testbed",
-    "wiswarm_apps.tracking.study:register_tracking",
-    "wiswarm_zenoh.cli.edge_cloud:register_edge_cloud",
-)
-
 
 def register(subparsers: Any) -> None:
-    """Add ``experiment`` and every study of STUDY_REGISTRARS under it."""
+    """Add ``experiment`` and every study under it."""
+    from wiswarm_apps.tracking.study import register_tracking
+    from wiswarm_zenoh.cli.edge_cloud import register_edge_cloud
+    from wiswarm_zenoh.cli.sim import register_sweep
+
     experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
     studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
     studies.required = True
-    for name in STUDY_REGISTRARS:
-        module, _, function = name.partition(":")
-        getattr(importlib.import_module(module), function)(studies)
+    for register_study in (register_sweep, register_testbed, register_tracking,
+                           register_edge_cloud):
+        register_study(studies)
 
 
 def _study_config(args: argparse.Namespace) -> StudyConfig:

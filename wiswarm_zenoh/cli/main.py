@@ -1,6 +1,7 @@
 """Entry point of the ``wiswarm`` console script.
 
-Each subcommand group lives in its own module exposing ``register(subparsers)``;
+Each subcommand group lives in its own module exposing ``register(subparsers)``, imported
+by ``every_command``;
 bad input ends with one line on stderr and exit code 2, returned by ``main`` (argparse's
 exit included), so that callers in-process see the same code as the shell.
 """
@@ -8,30 +9,37 @@ exit included), so that callers in-process see the same code as the shell.
 from __future__ import annotations
 
 import argparse
-import importlib
 import logging
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.transport.runners import sigterm_as_ctrl_c
 from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
-# Modules that add subcommands; each has ``register(subparsers) -> None`` and sets
-# ``func`` (args -> exit code) on the parsers it adds.
-SUBCOMMAND_MODULES: tuple[str, ...] = (
-    "wiswarm_zenoh.cli.nodes",
-    "wiswarm_zenoh.cli.sim",
-    "wiswarm_zenoh.cli.testbed",
-    "wiswarm_zenoh.cli.experiment",
-    "wiswarm_zenoh.cli.security",
-    "wiswarm_zenoh.cli.dashboard",
-    "wiswarm_zenoh.cli.recording",
-    "wiswarm_apps.tracking.cli",
-)
+Registrar = Callable[[Any], None]  # adds its subcommands to ``subparsers``, each with ``func``
 
 
-def build_parser() -> argparse.ArgumentParser:
+def every_command() -> tuple[Registrar, ...]:
+    """What ``wiswarm`` runs: each module's ``register(subparsers)``, imported here rather
+    than with this module, so that a caller naming fewer (a test) starts quicker."""
+    from wiswarm_apps.tracking import cli as tracking
+    from wiswarm_zenoh.cli import (
+        dashboard,
+        experiment,
+        nodes,
+        recording,
+        security,
+        sim,
+        testbed,
+    )
+    return (nodes.register, sim.register, testbed.register, experiment.register,
+            security.register, dashboard.register, recording.register, tracking.register)
+
+
+def build_parser(registrars: Sequence[Registrar] | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of those ``registrars`` add."""
     parser = OneLineParser(
         prog="wiswarm",
         description="WiSwarm: keep a swarm's information fresh by polling over Zenoh.",
@@ -43,13 +51,15 @@ def build_parser() -> argparse.ArgumentParser:
         dest="command", metavar="COMMAND", parser_class=OneLineParser
     )
     subparsers.required = True
-    for name in SUBCOMMAND_MODULES:
-        importlib.import_module(name).register(subparsers)
+    for register in every_command() if registrars is None else registrars:
+        register(subparsers)
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+def main(argv: Sequence[str] | None = None,
+         registrars: Sequence[Registrar] | None = None) -> int:
+    """Run one command (``argv``, default the process's); its exit code."""
+    parser = build_parser(registrars)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help (0), or a bad flag: its one line is written
