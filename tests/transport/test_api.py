@@ -43,7 +43,7 @@ def test_every_public_name_is_documented() -> None:
             assert after.startswith('"""'), name
         elif name != "__version__":
             assert getattr(wiswarm_zenoh, name).__doc__, name
-    for cls in (Follower, Leader, Observer, FifoChannel):
+    for cls in (Follower, Leader, Observer, FifoChannel, handlers.Channel, handlers.Receiver):
         for attr, member in vars(cls).items():
             if not attr.startswith("_") or attr in ("__iter__",):
                 assert member.__doc__, f"{cls.__name__}.{attr}"

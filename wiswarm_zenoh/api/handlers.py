@@ -2,7 +2,8 @@
 (run on the producing thread: keep it short), a ``FifoChannel`` (every item in order;
 a full one makes the producer wait) or a ``RingChannel`` (the latest items only; the
 producer never waits). A channel is read with ``recv``, ``try_recv`` or a ``for`` loop,
-which ends when the owner closes it.
+which ends when the owner closes it (a ``Receiver``'s methods do the same on the
+owner).
 """
 
 from __future__ import annotations
@@ -100,9 +101,33 @@ def deliver_to(handler: Handler[T] | None) -> tuple[Callable[[T], None] | None, 
     return handler, None
 
 
-def reading(channel: Channel[T] | None, owner: str) -> Channel[T]:
-    """``channel``, or a TypeError telling the user how to get one."""
-    if channel is None:
-        raise TypeError(f"this {owner} has no channel to read: open it with a FifoChannel "
-                        "or RingChannel as its handler")
-    return channel
+class Receiver(Generic[T]):
+    """Reading of what an owner (a ``Leader``, an ``Observer``) hands to its channel:
+    ``recv``, ``try_recv`` and a ``for`` loop; a TypeError if its handler was a callable."""
+
+    def __init__(self, channel: Channel[T] | None) -> None:
+        self._channel = channel
+
+    def _close_channel(self) -> None:
+        """No more items: a producer waiting on a full FIFO goes on, a reader ends."""
+        if self._channel is not None:
+            self._channel.close()
+
+    def _read(self) -> Channel[T]:
+        if self._channel is None:
+            raise TypeError(f"this {type(self).__name__} has no channel to read: open it "
+                            "with a FifoChannel or RingChannel as its handler")
+        return self._channel
+
+    def recv(self, timeout: float | None = None) -> T | None:
+        """The next item from the channel, waiting up to ``timeout`` seconds (None: until
+        one comes or the owner closes); None if none came."""
+        return self._read().recv(timeout)
+
+    def try_recv(self) -> T | None:
+        """The next item from the channel, or None at once."""
+        return self._read().try_recv()
+
+    def __iter__(self) -> Iterator[T]:
+        """Every item from the channel until the owner is closed."""
+        return iter(self._read())

@@ -4,13 +4,13 @@ channel, as zenoh-python's subscribers do)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from types import TracebackType
 from typing import Any
 
 import zenoh
 
-from wiswarm_zenoh.api.handlers import Handler, deliver_to, reading
+from wiswarm_zenoh.api.handlers import Handler, Receiver, deliver_to
 from wiswarm_zenoh.core import Delivered, FollowerStats, LeaderConfig
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.bridge import BridgeOptions, LeaderBridge
@@ -18,7 +18,7 @@ from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
 
 
-class Leader:
+class Leader(Receiver[Delivered]):
     """Polls the followers of ``swarm`` on ``session`` until ``close()`` (or the end of a
     ``with`` block), choosing whom to poll next by ``config.policy`` (the Whittle index
     by default), and publishes the swarm's stats on ``wiswarm/<swarm>/...``.
@@ -50,7 +50,8 @@ class Leader:
         forget_after: float | None = None,
         epoch: int | None = None,
     ) -> None:
-        on_delivery, self._channel = deliver_to(handler)
+        on_delivery, channel = deliver_to(handler)
+        super().__init__(channel)
         timings: dict[str, Any] = {key: value for key, value in (
             ("stats_period", stats_period), ("control_period", control_period),
             ("forget_after", forget_after)) if value is not None}
@@ -124,23 +125,10 @@ class Leader:
         its age by; returns the weight."""
         return self._node.observe_urgency(follower, urgency)
 
-    def recv(self, timeout: float | None = None) -> Delivered | None:
-        """The next delivery from this leader's channel (see ``Channel.recv``)."""
-        return reading(self._channel, "leader").recv(timeout)
-
-    def try_recv(self) -> Delivered | None:
-        """The next delivery from this leader's channel, or None at once."""
-        return reading(self._channel, "leader").try_recv()
-
-    def __iter__(self) -> Iterator[Delivered]:
-        """Every delivery from this leader's channel until ``close()``."""
-        return iter(reading(self._channel, "leader"))
-
     def close(self) -> None:
         """Stop polling and leave the swarm (a standby leader takes over); a channel's
         deliveries kept so far can still be read."""
-        if self._channel is not None:
-            self._channel.close()  # a poll thread waiting on a full FIFO goes on
+        self._close_channel()  # first: a poll thread waiting on a full FIFO goes on
         self._node.close()
 
     def __enter__(self) -> Leader:

@@ -8,14 +8,13 @@ import dataclasses
 import logging
 import math
 import typing
-from collections.abc import Iterator
 from dataclasses import dataclass
 from types import TracebackType
 from typing import Any, TypeAlias, TypeVar
 
 import zenoh
 
-from wiswarm_zenoh.api.handlers import Handler, deliver_to, reading
+from wiswarm_zenoh.api.handlers import Handler, Receiver, deliver_to
 from wiswarm_zenoh.core import FollowerStats
 from wiswarm_zenoh.dashboard.records import parse_deliveries
 from wiswarm_zenoh.dashboard.watch import Watch, json_payload
@@ -73,7 +72,7 @@ def typed(cls: type[R], record: Any) -> R:
     return cls(**values)
 
 
-class Observer:
+class Observer(Receiver[Observation]):
     """Subscribes to the stats and delivery stream of ``swarm`` on ``session`` until
     ``close()`` (or the end of a ``with`` block); nothing is sent, so no leader slows.
 
@@ -87,7 +86,8 @@ class Observer:
     def __init__(self, session: zenoh.Session, swarm: str,
                  handler: Handler[Observation] | None = None) -> None:
         self._keys = SwarmKeys(swarm)
-        self._emit, self._channel = deliver_to(handler)
+        self._emit, channel = deliver_to(handler)
+        super().__init__(channel)
         self._leader: LeaderSummary | None = None
         self._followers: dict[str, FollowerStats] = {}
         self.bad_input = BadInputLog(log)
@@ -137,22 +137,9 @@ class Observer:
         if self._emit is not None:
             self._emit(observation)
 
-    def recv(self, timeout: float | None = None) -> Observation | None:
-        """The next observation from this observer's channel (see ``Channel.recv``)."""
-        return reading(self._channel, "observer").recv(timeout)
-
-    def try_recv(self) -> Observation | None:
-        """The next observation from this observer's channel, or None at once."""
-        return reading(self._channel, "observer").try_recv()
-
-    def __iter__(self) -> Iterator[Observation]:
-        """Every observation from this observer's channel until ``close()``."""
-        return iter(reading(self._channel, "observer"))
-
     def close(self) -> None:
         """Stop watching; a channel's observations kept so far can still be read."""
-        if self._channel is not None:
-            self._channel.close()  # a Zenoh thread waiting on a full FIFO goes on
+        self._close_channel()  # first: a Zenoh thread waiting on a full FIFO goes on
         self._watch.close()
 
     def __enter__(self) -> Observer:
