@@ -29,8 +29,7 @@ def main() -> None:
                     print(f"  {stats.follower}: AoI {stats.aoi_s * 1e3:.1f} ms, "
                           f"{stats.deliveries} deliveries of {stats.polls} polls", flush=True)
                 case DeliveryRecord() as record if args.deliveries:
-                    print(f"  {record.follower}: "
-                          f"{'timeout' if record.timed_out else 'delivered'}", flush=True)
+                    print(f"  {record.follower}: {record.outcome}", flush=True)
 
 
 if __name__ == "__main__":

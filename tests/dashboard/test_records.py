@@ -9,13 +9,13 @@ from typing import Any
 import pytest
 
 from wiswarm_zenoh.dashboard.records import (
-    loads,
     parse_deliveries,
     parse_leader,
     parse_points,
     parse_stats,
     parse_tracking,
 )
+from wiswarm_zenoh.transport.watch import loads
 
 STATS = {"follower": "f1", "aoi_s": 0.01, "mean_aoi_s": 0.02, "p95_aoi_s": 0.05,
          "peak_aoi_s": 0.1, "p_hat": 0.9, "weight": 1.0, "polls": 10, "deliveries": 9,

@@ -5,6 +5,8 @@ Real sessions on loopback."""
 from __future__ import annotations
 
 import inspect
+import json
+import math
 import threading
 
 import pytest
@@ -138,5 +140,12 @@ def test_an_observer_skips_what_does_not_parse(
         publisher.put(f"wiswarm/{SWARM}/f9/stats", b'{"follower": "f9", "polls": "many"}')
         publisher.put(f"wiswarm/{SWARM}/f9/stats", b'{"follower": "f9", "polls": 3}')
         stats = seen.recv(WAIT)
-    assert isinstance(stats, FollowerStats) and stats.polls == 3
-    assert watching.bad_input.total() == 2
+        wait_until_known(publisher, f"wiswarm/{SWARM}/leader/deliveries")
+        publisher.put(f"wiswarm/{SWARM}/leader/deliveries", json.dumps([
+            {"follower": "f9", "outcome": "timeout", "generated_at": 1.0, "delivered_at": 2.0},
+            {"follower": "f9", "outcome": "delivered", "generated_at": 1.0, "delivered_at": 2.0},
+        ]))
+        record = seen.recv(WAIT)
+    assert isinstance(stats, FollowerStats) and stats.polls == 3 and math.isnan(stats.aoi_s)
+    assert record == DeliveryRecord("f9", "delivered", 1.0, 2.0)
+    assert watching.bad_input.total() == 3

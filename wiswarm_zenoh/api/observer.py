@@ -16,31 +16,30 @@ import zenoh
 
 from wiswarm_zenoh.api.handlers import Handler, Receiver, deliver_to
 from wiswarm_zenoh.core import FollowerStats
-from wiswarm_zenoh.dashboard.records import parse_deliveries
-from wiswarm_zenoh.dashboard.watch import Watch, json_payload
 from wiswarm_zenoh.transport.badinput import BadInputLog
-from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.keys import SwarmKeys, check_follower
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
+from wiswarm_zenoh.transport.watch import Watch, json_payload
 
 log = logging.getLogger(__name__)
-R = TypeVar("R", FollowerStats, LeaderSummary)
+
+
+OUTCOMES = ("delivered", "timeout")
 
 
 @dataclass(frozen=True)
 class DeliveryRecord:
-    """One entry of ``wiswarm/<swarm>/leader/deliveries``: an update delivered, or a poll
-    that timed out (``generated_at`` None); times on the leader's clock, in seconds."""
+    """One entry of ``wiswarm/<swarm>/leader/deliveries``: ``outcome`` "delivered" (an
+    update generated at ``generated_at``) or "timeout" (a poll unanswered, ``generated_at``
+    None), at ``delivered_at``; times on the leader's clock, in seconds."""
 
     follower: str
+    outcome: str
     generated_at: float | None
     delivered_at: float
 
-    @property
-    def timed_out(self) -> bool:
-        """The poll went unanswered (nothing was delivered)."""
-        return self.generated_at is None
 
-
+R = TypeVar("R", FollowerStats, LeaderSummary, DeliveryRecord)
 Observation: TypeAlias = LeaderSummary | FollowerStats | DeliveryRecord
 """What an ``Observer`` hands on: match on its type."""
 
@@ -56,20 +55,34 @@ def typed(cls: type[R], record: Any) -> R:
         kind = hints[field.name]
         if field.name not in record:
             if field.default is dataclasses.MISSING:
-                values[field.name] = {float: math.nan, int: 0, str: ""}.get(kind, [])
+                values[field.name] = {float: math.nan, int: 0, str: "", list[str]: [],
+                                      float | None: None}[kind]
             continue
         value = record[field.name]
-        if kind is float and isinstance(value, int | float) and not isinstance(value, bool):
+        if kind == float | None and value is None:
+            pass
+        elif kind in (float, float | None) and isinstance(value, int | float) \
+                and not isinstance(value, bool):
             value = float(value)
         elif kind is list[str] and isinstance(value, list) and all(
                 isinstance(item, str) for item in value):
             value = list(value)
-        elif kind not in (float, list[str]) and not (
+        elif kind not in (float, float | None, list[str]) and not (
                 isinstance(value, kind) and (kind is bool or not isinstance(value, bool))):
             raise ValueError(f"{field.name} must be {getattr(kind, '__name__', kind)}, "
                              f"got {value!r:.40}")
         values[field.name] = value
     return cls(**values)
+
+
+def delivery_record(item: Any) -> DeliveryRecord:
+    """One record of a deliveries batch; ValueError for one that says nothing sensible."""
+    record = typed(DeliveryRecord, item)
+    check_follower(record.follower)
+    if record.outcome not in OUTCOMES or not math.isfinite(record.delivered_at) \
+            or (record.generated_at is None) != (record.outcome == "timeout"):
+        raise ValueError(f"not a delivery record: {item!r:.100}")
+    return record
 
 
 class Observer(Receiver[Observation]):
@@ -127,11 +140,16 @@ class Observer(Receiver[Observation]):
         self._hand_on(stats)
 
     def _on_deliveries(self, key: str, data: Any) -> None:
-        good, bad = parse_deliveries(data)
-        for reason in bad:
-            self.bad_input.report(key, reason)
-        for follower, generated_at, delivered_at in good:
-            self._hand_on(DeliveryRecord(follower, generated_at, delivered_at))
+        """A batch: each good record handed on, each bad one reported."""
+        if not isinstance(data, list):
+            raise ValueError(f"a deliveries batch must be a JSON list, got {type(data).__name__}")
+        for item in data:
+            try:
+                record = delivery_record(item)
+            except ValueError as exc:
+                self.bad_input.report(key, str(exc))
+                continue
+            self._hand_on(record)
 
     def _hand_on(self, observation: Observation) -> None:
         if self._emit is not None:

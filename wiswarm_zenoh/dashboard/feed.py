@@ -21,8 +21,8 @@ from wiswarm_zenoh.dashboard.records import (
     parse_tracking,
 )
 from wiswarm_zenoh.dashboard.state import SwarmState
-from wiswarm_zenoh.dashboard.watch import Watch, json_payload
 from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys
+from wiswarm_zenoh.transport.watch import Watch, json_payload
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,6 @@ a tool does not need may be missing, but a field that is there has the right typ
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
 
@@ -29,14 +28,6 @@ TRACKING_NUMBERS = ("t", "x", "y", "z", "yaw", "car_x", "car_y", "error_m", "mea
                     "in_view_share", "control_age_s")
 POINT_METRICS = ("mean_aoi_s", "p95_aoi_s", "peak_aoi_s", "throughput_fps", "throughput_mbps")
 GENERATED_SLACK_S = 1e-3  # a generation time this far after its delivery is a rounding
-
-
-def loads(payload: bytes) -> Any:
-    """JSON from bytes; ValueError (with the decoder's words) for anything else."""
-    try:
-        return json.loads(payload)
-    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"not JSON: {exc}") from None
 
 
 def _object(data: Any, what: str) -> dict[str, Any]:

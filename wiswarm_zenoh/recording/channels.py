@@ -43,17 +43,16 @@ from foxglove.messages import (
 from wiswarm_zenoh.core.wire import decode_control
 from wiswarm_zenoh.dashboard.feed import TRACKING_LEAF
 from wiswarm_zenoh.dashboard.records import (
-    loads,
     parse_deliveries,
     parse_leader,
     parse_stats,
     parse_tracking,
 )
-from wiswarm_zenoh.dashboard.watch import Handler, json_payload
 from wiswarm_zenoh.recording import schemas
 from wiswarm_zenoh.recording.scene import arena_update
 from wiswarm_zenoh.ros2 import IMAGE, POSE_STAMPED, UpdateAdapter
 from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
+from wiswarm_zenoh.transport.watch import Handler, json_payload, loads
 
 log = logging.getLogger(__name__)
 NS_PER_S = 1_000_000_000

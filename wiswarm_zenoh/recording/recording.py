@@ -13,9 +13,9 @@ from types import TracebackType
 import foxglove
 import zenoh
 
-from wiswarm_zenoh.dashboard.watch import Watch
 from wiswarm_zenoh.recording.channels import SwarmChannels
 from wiswarm_zenoh.ros2 import UpdateAdapter
+from wiswarm_zenoh.transport.watch import Watch
 
 log = logging.getLogger(__name__)
 

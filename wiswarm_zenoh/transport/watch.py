@@ -1,9 +1,11 @@
-"""Subscriptions to a swarm's keys for tools that only watch (the dashboard, the MCAP
-recorder, the Foxglove server): anyone may publish on those keys, so each handler's
-ValueError or WireError is bad input, counted and logged with the sample's key."""
+"""Subscriptions to a swarm's keys for tools that only watch (the ``Observer``, the
+dashboard, the MCAP recorder, the Foxglove server): anyone may publish on those keys, so
+each handler's ValueError or WireError is bad input, counted and logged with the
+sample's key."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping
 from contextlib import ExitStack
 from typing import Any
@@ -11,10 +13,17 @@ from typing import Any
 import zenoh
 
 from wiswarm_zenoh.core import WireError
-from wiswarm_zenoh.dashboard.records import loads
-from wiswarm_zenoh.transport import BadInputLog
+from wiswarm_zenoh.transport.badinput import BadInputLog
 
 Handler = Callable[[str, zenoh.Sample], None]
+
+
+def loads(payload: bytes) -> Any:
+    """JSON from bytes; ValueError (with the decoder's words) for anything else."""
+    try:
+        return json.loads(payload)
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"not JSON: {exc}") from None
 
 
 def json_payload(handler: Callable[[str, Any], None]) -> Handler:
