@@ -104,11 +104,13 @@ def test_a_sampler_feeds_a_callback_and_a_ring_keeps_the_latest(
     assert [ring.try_recv(), ring.try_recv(), ring.try_recv()] == [3, 4, None]
 
 
-def test_a_leader_with_a_callback_has_no_channel_to_read(
+def test_a_leader_with_a_callback_has_no_channel_to_read_and_a_config_is_no_handler(
         sessions: Sessions, router: zenoh.Session, port: int) -> None:
     with Leader(sessions.node(port), SWARM, lambda _: None) as leader, \
             pytest.raises(TypeError, match="FifoChannel"):
         leader.recv(0)
+    with pytest.raises(TypeError, match="not LeaderConfig"):
+        Leader(sessions.node(port), SWARM, LeaderConfig())  # type: ignore[arg-type]
 
 
 def test_an_observer_sees_stats_and_deliveries_typed(

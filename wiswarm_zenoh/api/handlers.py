@@ -98,6 +98,9 @@ def deliver_to(handler: Handler[T] | None) -> tuple[Callable[[T], None] | None, 
     """(what the producer calls, the channel a reader reads or None) for ``handler``."""
     if isinstance(handler, Channel):
         return handler.put, handler
+    if handler is not None and not callable(handler):
+        raise TypeError(f"a handler is a callable, a FifoChannel or a RingChannel, not "
+                        f"{type(handler).__name__}")
     return handler, None
 
 
