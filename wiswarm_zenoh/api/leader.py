@@ -30,7 +30,10 @@ class Leader(Receiver[Delivered]):
     this leader polls and False while an older one does (any number may run: the
     others stand by and take over). ``name`` tells leaders apart (default: host and
     process id); ``bridge`` (``wiswarm_zenoh.ros2.Ros2Options``) mirrors the swarm to
-    ROS 2. The other keywords tune the leader's timings; leave them out for the defaults.
+    ROS 2. ``stats_period`` (seconds between stats), ``control_period`` (between repeats
+    of unchanged control; 0: with every poll) and ``forget_after`` (how long a departed
+    follower's stats stay) default to the leader's own; ``epoch`` to the start time in
+    microseconds.
     """
 
     def __init__(
