@@ -6,6 +6,7 @@ few degrees every --period seconds (the followers print them: see follower_bytes
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 
@@ -29,7 +30,8 @@ def main() -> None:
             for i, follower in enumerate(followers):
                 angle = 2 * math.pi * i / len(followers) + math.radians(5 * step)
                 x, y = args.radius * math.cos(angle), args.radius * math.sin(angle)
-                leader.set_control(follower, [(x, y, 10.0, angle + math.pi / 2)])
+                with contextlib.suppress(ValueError):  # it left since: polled no more
+                    leader.set_control(follower, [(x, y, 10.0, angle + math.pi / 2)])
             step, next_at = step + 1, next_at + args.period
             wait_until(min(next_at, end))
 

@@ -35,12 +35,12 @@ class RecordingSink:
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         self.plans.append((follower, [tuple(w) for w in waypoints]))
 
-    def observe_urgency(self, follower: str, v: float) -> float:
-        self.urgencies.append((follower, v))
+    def observe_urgency(self, follower: str, urgency: float) -> float:
+        self.urgencies.append((follower, urgency))
         self.handled.release()
         if len(self.urgencies) >= self._expected:
             self.done.set()
-        return v
+        return urgency
 
 
 def frame_over_car(car: int, t: float) -> bytes:

@@ -30,10 +30,9 @@ class Leader(Receiver[Delivered]):
     this leader polls and False while an older one does (any number may run: the
     others stand by and take over). ``name`` tells leaders apart (default: host and
     process id); ``bridge`` (``wiswarm_zenoh.ros2.Ros2Options``) mirrors the swarm to
-    ROS 2. ``stats_period`` (seconds between stats), ``control_period`` (between repeats
-    of unchanged control; 0: with every poll) and ``forget_after`` (how long a departed
-    follower's stats stay) default to the leader's own; ``epoch`` to the start time in
-    microseconds.
+    ROS 2. ``stats_period`` (seconds between stats) and ``forget_after`` (how long a
+    departed follower's stats stay) default to the leader's own; ``epoch`` to the start
+    time in microseconds. ``config`` holds the policy, timeouts and control period.
     """
 
     def __init__(
@@ -49,15 +48,14 @@ class Leader(Receiver[Delivered]):
         name: str | None = None,
         bridge: BridgeOptions | None = None,
         stats_period: float | None = None,
-        control_period: float | None = None,
         forget_after: float | None = None,
         epoch: int | None = None,
     ) -> None:
         on_delivery, channel = deliver_to(handler)
         super().__init__(channel)
         timings: dict[str, Any] = {key: value for key, value in (
-            ("stats_period", stats_period), ("control_period", control_period),
-            ("forget_after", forget_after)) if value is not None}
+            ("stats_period", stats_period), ("forget_after", forget_after))
+            if value is not None}
         self._node = LeaderNode(session, swarm, config, on_delivery=on_delivery,
                                 on_join=on_join, on_leave=on_leave, on_role=on_role,
                                 epoch=epoch, name=name, bridge=bridge, **timings)
@@ -119,14 +117,15 @@ class Leader(Receiver[Delivered]):
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """Steer ``follower``: its waypoints (``x, y, z, yaw`` each) go out with the next
-        poll on ``wiswarm/<swarm>/control`` and reach its ``on_control``."""
+        poll on ``wiswarm/<swarm>/control`` and reach its ``on_control``. ValueError for
+        waypoints the wire does not allow or a follower that is not polled."""
         self._node.set_control(follower, waypoints)
 
-    def observe_urgency(self, follower: str, urgency: float) -> float:
+    def observe_urgency(self, follower: str, urgency: float) -> None:
         """Weigh ``follower`` by the application's urgency (how much its freshness matters
         now, >= 0): fed into its weight's moving average, which the policy multiplies
-        its age by; returns the weight."""
-        return self._node.observe_urgency(follower, urgency)
+        its age by (``stats`` shows the weight)."""
+        self._node.observe_urgency(follower, urgency)
 
     def close(self) -> None:
         """Stop polling and leave the swarm (a standby leader takes over); a channel's
