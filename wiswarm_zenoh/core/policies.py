@@ -30,9 +30,11 @@ class Policy(Protocol):
 
     name: str
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int: ...
+    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
+        """The position of the follower to poll, from weights, reliabilities and ages."""
 
-    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int: ...
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int:
+        """As ``choose``, from plain lists (faster than arrays for small swarms)."""
 
 
 class IndexPolicy(ABC):

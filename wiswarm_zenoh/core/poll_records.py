@@ -41,6 +41,7 @@ class PollRequest:
 
     @property
     def control(self) -> bytes:
+        """The control message to broadcast with this poll, encoded now."""
         return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries,
                                      self.epoch)
 

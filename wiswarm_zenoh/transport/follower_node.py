@@ -69,10 +69,12 @@ class FollowerNode:
 
     @property
     def polls(self) -> int:
+        """Polls answered so far."""
         return self._core.polls
 
     @property
     def offered(self) -> int:
+        """Updates offered so far (taken or dropped by the queue)."""
         return self._core.offered
 
     def _on_query(self, query: zenoh.Query) -> None:

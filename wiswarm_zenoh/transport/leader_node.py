@@ -157,11 +157,13 @@ class LeaderNode:
 
     @property
     def followers(self) -> list[str]:
+        """The followers it polls now (members whose token is up)."""
         with self._lock:
             return self._leader.followers
 
     @property
     def polls(self) -> int:
+        """Polls sent so far."""
         return self._leader.polls
 
     @property
@@ -196,6 +198,8 @@ class LeaderNode:
             self._control_version += 1
 
     def observe_urgency(self, follower: str, v: float) -> float:
+        """Feed the application's urgency signal ``v`` into the follower's weight (an EMA,
+        alpha 0.8); returns the new weight."""
         with self._lock:
             return self._leader.observe_urgency(follower, v)
 
