@@ -175,6 +175,7 @@ POLICIES: dict[str, Callable[[random.Random], Policy]] = {
     "round-robin": lambda rng: RoundRobin(),
     "random": lambda rng: RandomChoice(rng),
 }
+"""Every policy by name (``LeaderConfig.policy``), each made from a ``random.Random``."""
 
 
 def make_policy(name: str, rng: random.Random | None = None) -> Policy:

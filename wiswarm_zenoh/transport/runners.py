@@ -40,6 +40,7 @@ from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 log = logging.getLogger(__name__)
 
 SUPERVISION_PERIOD = 0.25  # seconds between checks of the deadline and the parent
+"""Seconds between a node's checks of its deadline and of its parent process."""
 
 
 class StopSignal(Protocol):
