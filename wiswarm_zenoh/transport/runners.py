@@ -32,7 +32,7 @@ from wiswarm_zenoh.transport.frames import (
     SyntheticFrames,
     capture_time,
 )
-from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
+from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.router_watch import RouterWatch
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
@@ -226,7 +226,6 @@ class LeaderOptions:
     swarm: str
     config: LeaderConfig = field(default_factory=LeaderConfig)
     duration: float | None = None
-    control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
     stats_file: str | None = None  # JSON of the last stats (leader, followers), at exit
@@ -259,7 +258,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                control_period=options.control_period, name=options.name,
+                name=options.name,
                 bridge=options.bridge)
             if upstream is not None:
                 upstream.set_control = node.set_control
