@@ -19,6 +19,7 @@ import griffe
 import pytest
 
 from wiswarm_zenoh.cli.main import build_parser
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -106,6 +107,49 @@ def test_the_embedding_example_delivers_and_steers() -> None:
     assert sum(line.startswith("uav1: b'reading ") for line in lines) >= 5
     assert any(line.startswith("uav1 told to fly") for line in lines)
     assert any("FollowerStats(follower='uav1'" in line for line in lines)
+
+
+def test_the_two_process_example_talks_through_a_router(tmp_path: Path) -> None:
+    """follower.py and leader.py of getting started, each a process as printed, through
+    ``wiswarm router`` (on a free port, and a swarm of their own, nothing else changed)."""
+    page = DOCS / "getting-started.md"
+    blocks = _code_blocks(page, "python")
+    [follower] = [b for b in blocks if b.startswith("# follower.py")]
+    [leader] = [b for b in blocks if b.startswith("# leader.py")]
+    port = free_tcp_port()
+    swarm = f"docs{port}"
+    for name, code in (("follower.py", follower), ("leader.py", leader)):
+        assert "tcp/127.0.0.1:7447" in code and '"s1"' in code
+        code = code.replace("tcp/127.0.0.1:7447", f"tcp/127.0.0.1:{port}")
+        (tmp_path / name).write_text(code.replace('"s1"', f'"{swarm}"'))
+    wiswarm = Path(sys.executable).with_name("wiswarm")
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}  # what the follower said before its end
+    router = subprocess.Popen(
+        [str(wiswarm), "router", "-l", f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    started = [router]
+    try:
+        assert router.stdout is not None
+        assert "listening" in router.stdout.readline()
+        follower_process = subprocess.Popen(
+            [sys.executable, "follower.py"], cwd=tmp_path, stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, text=True, env=env)
+        started.append(follower_process)
+        done = subprocess.run([sys.executable, "leader.py"], cwd=tmp_path,
+                              capture_output=True, text=True, timeout=60, env=env)
+        assert done.returncode == 0, done.stderr[-2000:]
+        lines = done.stdout.splitlines()
+        assert "joined: uav1" in lines
+        assert sum(line.startswith("uav1: my sensor at ") for line in lines) >= 20
+        assert any(line.startswith("uav1 mean AoI") for line in lines)
+        follower_process.terminate()
+        said, _ = follower_process.communicate(timeout=30)
+        assert "fly to [(" in said
+    finally:
+        for process in reversed(started):
+            if process.poll() is None:
+                process.terminate()
+                process.wait(30)
 
 
 def _commands(parser: argparse.ArgumentParser, prefix: str) -> Iterator[str]:
