@@ -57,7 +57,6 @@ from wiswarm_zenoh.security.acl import Roster
 from wiswarm_zenoh.security.deploy import Plan, init
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.frames import SyntheticFrames
-from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
 from wiswarm_zenoh.transport.runners import (
     ReadySignal,
     StopSignal,
@@ -65,6 +64,7 @@ from wiswarm_zenoh.transport.runners import (
     run_router,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 SWARM = "bench"

@@ -25,6 +25,7 @@ class FollowerStats:
     present: bool = True  # False: it left (token gone); its age keeps growing here
 
     def as_dict(self) -> dict[str, float | int | str]:
+        """The record as a plain dict, the stats JSON's fields."""
         # Its fields are plain numbers and a string: a shallow copy is the whole of it,
         # 30 times cheaper than ``asdict``'s deep copy (made for each follower in each stats put).
         return dict(vars(self))

@@ -84,6 +84,7 @@ class Leader:
 
     @property
     def followers(self) -> list[str]:
+        """The followers it polls now, in the order they were added."""
         return list(self.table.ids)
 
     @property

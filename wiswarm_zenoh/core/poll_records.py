@@ -33,6 +33,7 @@ class PollRequest:
 
     @property
     def control(self) -> bytes | None:
+        """The control message to broadcast with this poll, encoded now; None when none is due."""
         if self.packed_entries is None:
             return None
         return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries,

@@ -12,6 +12,7 @@ import zenoh
 from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.outlets import notify
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.units import format_epoch
 
@@ -22,8 +23,9 @@ class LeaderRole:
     """This leader's role among its swarm's leaders, kept on the poll thread."""
 
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, name: str, leader: Leader,
-                 wake: Callable[[], None]) -> None:
+                 wake: Callable[[], None], on_role: Callable[[bool], None] | None) -> None:
         self.name = name
+        self._on_role = on_role
         self._leader = leader
         self.active: bool | None = None  # this process polls (None: not decided yet)
         self._handover = Handover(session, keys)
@@ -35,9 +37,10 @@ class LeaderRole:
         """The election's verdict differs from the role taken."""
         return self._election.leading != self.active
 
-    def take(self, now: float) -> bool:
+    def take(self, now: float) -> None:
         """Take the role the election gives: active (with an epoch above any heard, and
-        the weights and control the leader before left) or standing by."""
+        the weights and control the leader before left) or standing by; ``on_role``
+        hears it."""
         self.active = self._election.leading
         if not self.active:
             log.info("leader %s stands by (an older leader is active: %s)", self.name,
@@ -46,12 +49,13 @@ class LeaderRole:
             self._rise(now, take_state=True)
             log.info("leader %s is active, epoch %s", self.name,
                      format_epoch(self._leader.epoch))
-        return self.active
+        if self._on_role is not None:
+            notify(self._on_role, self.active)
 
     def hold(self, now: float) -> None:
         """An active leader that hears an epoch as high as its own (two active across a
         partition) rises above it."""
-        if self._handover.epoch >= self._leader.epoch:
+        if self.active and self._handover.epoch >= self._leader.epoch:
             self._rise(now, take_state=False)
 
     def _rise(self, now: float, take_state: bool) -> None:

@@ -28,8 +28,8 @@ log = logging.getLogger(__name__)
 
 FORGET_AFTER = 60.0  # seconds a follower that left stays in the stats, its age growing
 
-ReplyHandler = Callable[[FollowerLink, zenoh.Reply], object]
-EndHandler = Callable[[FollowerLink, int], object]  # a poll's get is over (its sequence)
+ReplyHandler = Callable[[FollowerLink, zenoh.Reply], None]
+EndHandler = Callable[[FollowerLink, int], None]  # a poll's get is over (its sequence)
 
 
 class Membership:
@@ -38,15 +38,21 @@ class Membership:
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, leader: Leader,
                  clock: Callable[[], float], post: Callable[[Callable[[], object]], object],
                  on_reply: ReplyHandler, on_end: EndHandler, bad_input: BadInputLog,
-                 forget_after: float = FORGET_AFTER) -> None:
+                 forget_after: float = FORGET_AFTER,
+                 on_join: Callable[[str], object] | None = None,
+                 on_leave: Callable[[str], object] | None = None) -> None:
         self._session, self._keys, self._leader, self._clock = session, keys, leader, clock
-        self._post, self._on_reply, self._on_end = post, on_reply, on_end
+        # Replies and ends come on Zenoh's thread: handled on the poll thread.
+        self._post = post
+        self._on_reply: Callable[[FollowerLink, zenoh.Reply], object] = \
+            lambda link, reply: post(partial(on_reply, link, reply))
+        self._on_end: Callable[[FollowerLink, int], object] = \
+            lambda link, poll_seq: post(partial(on_end, link, poll_seq))
         self._bad_input = bad_input
         self._forget_after = forget_after
         self.links: dict[str, FollowerLink] = {}
         self.followers: list[str] = []  # those polled (a copy: read from any thread)
-        self.on_join: Callable[[str], object] | None = None
-        self.on_leave: Callable[[str], object] | None = None
+        self._on_join, self._on_leave = on_join, on_leave
         self._departed_at: dict[str, float] = {}  # followers gone, not forgotten yet
         self._tokens = session.liveliness().declare_subscriber(keys.members, self._on_token,
                                                                history=True)
@@ -80,16 +86,16 @@ class Membership:
         else:
             return
         self.followers = self._leader.followers  # before the callback: it may call in
-        callback = self.on_join if joined else self.on_leave
+        callback = self._on_join if joined else self._on_leave
         if callback is not None:
             notify(callback, follower)
 
-    def forget_departed(self, leader: Leader, now: float) -> None:
+    def forget_departed(self, now: float) -> None:
         """Followers gone for ``forget_after`` are forgotten, their links closed."""
         for follower, left_at in list(self._departed_at.items()):
             if now - left_at >= self._forget_after:
                 del self._departed_at[follower]
-                leader.forget_follower(follower)
+                self._leader.forget_follower(follower)
                 self.links.pop(follower).close()
                 log.info("follower %s forgotten (gone for %.0f s)", follower, now - left_at)
 

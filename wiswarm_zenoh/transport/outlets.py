@@ -1,7 +1,8 @@
-"""Where the leader's events go on Zenoh: each delivery to its follower's ``fresh`` key
-(while anyone listens), the delivery stream, a bridge and the application; unanswered
-polls to the delivery stream; bad input to the log with its key; a follower's silence
-and return to the log."""
+"""Where the leader's output goes on Zenoh: each poll to its follower's querier with
+the control broadcast when due; each delivery to its follower's ``fresh`` key (while
+anyone listens), the delivery stream, a bridge and the application; unanswered polls
+to the delivery stream; bad input to the log with its key; a follower's silence and
+return to the log."""
 
 from __future__ import annotations
 
@@ -9,10 +10,22 @@ import logging
 from collections.abc import Callable, Mapping
 from typing import TypeVar
 
-from wiswarm_zenoh.core import Answering, Delivered, Event, Rejected, Silent, Stale, TimedOut
+import zenoh
+
+from wiswarm_zenoh.core import (
+    Answering,
+    Delivered,
+    Event,
+    PollRequest,
+    Rejected,
+    Silent,
+    Stale,
+    TimedOut,
+)
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.bridge import LeaderBridge
 from wiswarm_zenoh.transport.delivery_stream import DeliveryStream
+from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.telemetry import fresh_attachment
@@ -30,15 +43,23 @@ def notify(callback: Callable[[T], object], arg: T) -> None:
 
 
 class Outlets:
-    """Hands each event of the core on (on the poll thread)."""
+    """Sends the core's polls and hands its events on (on the poll thread)."""
 
-    def __init__(self, keys: SwarmKeys, links: Mapping[str, FollowerLink],
-                 deliveries: DeliveryStream, bad_input: BadInputLog,
+    def __init__(self, session: zenoh.Session, keys: SwarmKeys,
+                 links: Mapping[str, FollowerLink], bad_input: BadInputLog,
                  on_delivery: Callable[[Delivered], None] | None,
                  clock: Callable[[], float]) -> None:
-        self._keys, self._links, self._deliveries = keys, links, deliveries
+        self._keys, self._links = keys, links
         self._bad_input, self._on_delivery, self._clock = bad_input, on_delivery, clock
+        self.deliveries = DeliveryStream(session, keys)
+        self._control = session.declare_publisher(keys.control, express=True)
         self.bridge: LeaderBridge | None = None
+
+    def send(self, request: PollRequest) -> None:
+        control = request.control
+        if control is not None:
+            self._control.put(control)
+        self._links[request.follower].poll(request.payload, request.poll_seq)
 
     def hand_on(self, event: Event) -> None:
         match event:
@@ -46,13 +67,13 @@ class Outlets:
                 link = self._links.get(follower)
                 if link is not None and link.listening:
                     link.fresh.put(event.payload, attachment=fresh_attachment(event))
-                self._deliveries.add(event, event.delivered_at)
+                self.deliveries.add(event, event.delivered_at)
                 if self.bridge is not None:
                     notify(self.bridge.deliver, event)
                 if self._on_delivery is not None:
                     notify(self._on_delivery, event)
             case TimedOut(follower=follower, poll_seq=poll_seq):
-                self._deliveries.add(event, self._clock())
+                self.deliveries.add(event, self._clock())
                 log.debug("poll %d of %s unanswered", poll_seq, follower)
             case Rejected(follower=follower, reason=reason) | Stale(follower=follower,
                                                                     reason=reason):
@@ -65,3 +86,7 @@ class Outlets:
                             "unanswered): probing it alone now", follower, polls)
             case Answering(follower=follower, silent_for=silent_for):
                 log.info("follower %s answers again, after %.1f s", follower, silent_for)
+
+    def close(self) -> None:
+        self.deliveries.close()
+        undeclare(self._control)

@@ -40,20 +40,27 @@ from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 log = logging.getLogger(__name__)
 
 SUPERVISION_PERIOD = 0.25  # seconds between checks of the deadline and the parent
+"""Seconds between a node's checks of its deadline and of its parent process."""
 
 
 class StopSignal(Protocol):
     """``threading.Event`` or ``multiprocessing.Event``."""
 
-    def is_set(self) -> bool: ...
-    def set(self) -> None: ...
-    def wait(self, timeout: float | None = None) -> bool: ...
+    def is_set(self) -> bool:
+        """Whether a stop was asked for."""
+
+    def set(self) -> None:
+        """Ask for a stop."""
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait up to ``timeout`` seconds for a stop; whether it was asked for."""
 
 
 class ReadySignal(Protocol):
     """Set once the session is open and the node declared (an Event, or a message)."""
 
-    def set(self) -> None: ...
+    def set(self) -> None:
+        """Say the node is ready."""
 
 
 def wait_until_stopped(stop: StopSignal, duration: float | None = None,

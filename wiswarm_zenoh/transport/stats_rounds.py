@@ -17,6 +17,8 @@ from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.outlets import notify
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, follower_stats, to_json
 
+STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
+
 
 class StatsRounds:
     """Rounds of stats; ``due`` says when the next records are owed."""
@@ -47,7 +49,7 @@ class StatsRounds:
         self._owed.clear()
 
     def tick(self, now: float, leader: Leader, links: Mapping[str, FollowerLink],
-             active: bool, bridge: LeaderBridge | None) -> None:
+             active: bool | None, bridge: LeaderBridge | None) -> None:
         """What is due by ``now``: nothing from a standby (the active leader's stats are
         the swarm's); the records due, and at a round's end the summary, handed to
         ``bridge`` too."""
