@@ -1,5 +1,6 @@
-"""A leader that steers its followers: each gets a waypoint on a circle, moved on by a
-few degrees every --period seconds (the followers print them: see follower_bytes.py).
+"""A leader that steers its followers: each gets a waypoint ``(t, x, y, z)``, a point
+on a circle one --period ahead (t on the leader's clock), moved on by a few degrees
+every --period seconds (the followers print them: see follower_bytes.py).
 
     python examples/leader_waypoints.py
 """
@@ -31,7 +32,7 @@ def main() -> None:
                 angle = 2 * math.pi * i / len(followers) + math.radians(5 * step)
                 x, y = args.radius * math.cos(angle), args.radius * math.sin(angle)
                 with contextlib.suppress(ValueError):  # it left since: polled no more
-                    leader.set_control(follower, [(x, y, 10.0, angle + math.pi / 2)])
+                    leader.set_control(follower, [(time.time() + args.period, x, y, 10.0)])
             step, next_at = step + 1, next_at + args.period
             wait_until(min(next_at, end))
 

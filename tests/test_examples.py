@@ -95,7 +95,7 @@ def test_the_steering_leader_s_waypoints_reach_the_follower(port: int) -> None:
     leader = Example("leader_waypoints.py", port, "--period", "0.2")
     try:
         line = follower.wait_for(r"^waypoints: \[\(")
-        x, y, z, _ = map(float, re.findall(r"-?[\d.]+(?:e-?\d+)?", line))
+        _, x, y, z = map(float, re.findall(r"-?[\d.]+(?:e-?\d+)?", line))
         assert (round(x**2 + y**2), z) == (400, 10.0)  # on the circle of radius 20
         leader.stop()
         follower.stop()

@@ -8,6 +8,7 @@ import inspect
 import json
 import math
 import threading
+import time
 
 import pytest
 import zenoh
@@ -71,9 +72,11 @@ def test_offered_bytes_reach_a_fifo_channel_and_waypoints_reach_the_follower(
         follower.offer(b"second")
         assert next(iter(leader)).payload == b"second"
         assert joined.is_set() and leader.followers == ["uav1"] and leader.active
-        leader.set_control("uav1", [(1.0, 2.0, 3.0, 0.5)])
+        when = time.time() + 1.0  # (t, x, y, z): t on the leader's clock
+        leader.set_control("uav1", [(when, 2.0, 3.0, 0.5)])
         assert heard.wait(WAIT)
-        assert [tuple(w) for w in steered[-1]] == [(1.0, 2.0, 3.0, 0.5)]
+        [(t, x, y, z)] = steered[-1]  # t on this follower's clock: the same host's
+        assert (x, y, z) == (2.0, 3.0, 0.5) and t == pytest.approx(when, abs=0.1)
         leader.observe_urgency("uav1", 2.0)
         assert follower.polls > 0 and follower.offered == 2
     while leader.try_recv() is not None:  # what came after the last read

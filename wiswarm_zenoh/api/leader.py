@@ -116,7 +116,8 @@ class Leader(Receiver[Delivered]):
         return self._node.bad_input
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
-        """Steer ``follower``: its waypoints (``x, y, z, yaw`` each) go out with the next
+        """Steer ``follower``: its waypoints (``t, x, y, z`` each: when, on the leader's
+        clock, in seconds since the epoch, and where, in metres) go out with the next
         poll on ``wiswarm/<swarm>/control`` and reach its ``on_control``. ValueError for
         waypoints the wire does not allow or a follower that is not polled."""
         self._node.set_control(follower, waypoints)
