@@ -32,7 +32,8 @@ def test_the_site_builds_strict(tmp_path: Path) -> None:
         cwd=ROOT, capture_output=True, text=True, timeout=120, env=env)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     api = (tmp_path / "site" / "api.html").read_text(encoding="utf-8")
-    for name in ("wiswarm_zenoh.transport.FollowerNode", "wiswarm_zenoh.transport.LeaderNode",
+    for name in ("wiswarm_zenoh.Follower", "wiswarm_zenoh.Leader", "wiswarm_zenoh.Observer",
+                 "wiswarm_zenoh.transport.FollowerNode", "wiswarm_zenoh.transport.LeaderNode",
                  "wiswarm_zenoh.core.Leader.next_poll"):
         assert f'id="{name}"' in api, name
 
@@ -97,8 +98,8 @@ def test_the_embedding_example_delivers_and_steers() -> None:
     """The one-process example of getting started: a follower and a leader on one peer
     session, as printed (it opens no router)."""
     page = DOCS / "getting-started.md"
-    [block] = [b for b in _code_blocks(page, "python") if "FollowerNode(" in b
-               and "LeaderNode(" in b]
+    [block] = [b for b in _code_blocks(page, "python") if "with Follower(session" in b
+               and "Leader(session" in b]
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         exec(compile(block, str(page), "exec"), {"__name__": "__main__"})

@@ -33,6 +33,7 @@ class LeaderSummary:
     def of(cls, records: Sequence[FollowerStats], polls_per_s: float, policy: str,
            uptime_s: float, leader: str = "", epoch: int = 0,
            in_flight: int = 1) -> LeaderSummary:
+        """The summary of one round of ``records``: the followers present, their mean AoI."""
         present = [r for r in records if r.present]  # those that left: in their own stats
         means = [r.mean_aoi_s for r in present]
         return cls(
@@ -42,6 +43,7 @@ class LeaderSummary:
         )
 
     def as_dict(self) -> dict[str, object]:
+        """The JSON object published on ``leader/stats``."""
         return {"followers": self.followers, "polls_per_s": self.polls_per_s,
                 "mean_aoi_s": self.mean_aoi_s, "policy": self.policy, "uptime_s": self.uptime_s,
                 "leader": self.leader, "epoch": self.epoch, "in_flight": self.in_flight}
