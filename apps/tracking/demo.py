@@ -201,7 +201,7 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
         with LeaderNode(session, SWARM, config, on_delivery=reception.on_delivered,
-                        bridge=options.ros2) as node:
+                        bridge=options.ros2, every_record=True) as node:  # weights shown
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.latest},
                 lambda: node.polls,

@@ -258,8 +258,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                name=options.name,
-                bridge=options.bridge)
+                name=options.name, bridge=options.bridge,
+                every_record=show is not None or options.stats_file is not None)
             if upstream is not None:
                 upstream.set_control = node.set_control
             _lead(node, session, spec.connect, options, stop, ready, show)
