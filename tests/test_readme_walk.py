@@ -5,9 +5,10 @@ process per minute; each misstep a newcomer makes must be named in its one line.
 
 Covered: a swarm by hand (router, leader, two followers), a secured swarm (``wiswarm
 security init``) with an observer's dashboard, a short demo on loopback, and the
-missteps: no router where the leader is pointed, a plain endpoint at a TLS router, a
-dashboard port in use. (The demo's comparison over the shared link, the testbed study
-and the two-site walkthrough have tests of their own.)"""
+missteps: no router where the leader or a follower is pointed (said after 3 s, and at the
+end, exit code 1), a plain endpoint at a TLS router, a dashboard port in use. (The demo's
+comparison over the shared link, the testbed study and the two-site walkthrough have
+tests of their own.)"""
 
 from __future__ import annotations
 
@@ -126,7 +127,16 @@ def test_no_router_where_the_leader_is_pointed_is_named_in_one_line(tmp_path: Pa
     leader = Node(["leader", *_endpoint(port), "--duration", "5"])
     line = leader.wait_for("no router reached")
     assert f"tcp/127.0.0.1:{port}" in line and "wiswarm router" in line
-    leader.finish()
+    assert leader.finish() == 1  # and at its end, that none ever was
+
+
+def test_a_follower_that_never_reached_a_router_says_so_and_fails(tmp_path: Path) -> None:
+    port = free_tcp_port()  # nothing listens there
+    follower = Node(["follower", "--id", "uav1", *_endpoint(port), "--duration", "1.5"])
+    assert follower.finish() == 1, follower.lines[-5:]
+    said = [line for line in follower.lines if "no router was ever reached" in line]
+    assert len(said) == 1 and f"tcp/127.0.0.1:{port}" in said[0], follower.lines[-5:]
+    assert not any("Traceback" in line for line in follower.lines)
 
 
 def test_a_plain_endpoint_at_a_tls_router_is_named_on_both_sides(tmp_path: Path) -> None:

@@ -14,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from wiswarm_zenoh.options import OneLineParser, UsageError
+from wiswarm_zenoh.transport.router_watch import NoRouterReached
 from wiswarm_zenoh.transport.runners import sigterm_as_ctrl_c
 from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
 
@@ -64,6 +65,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:
         print(f"wiswarm {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except NoRouterReached:  # the node said so in its one line
+        return 1
     except KeyboardInterrupt:
         return 130
     return code
