@@ -130,6 +130,11 @@ class Children:
         """Whether child ``name`` is still running."""
         return self._procs[name].is_alive()
 
+    def exit_code(self, name: str) -> int | None:
+        """Child ``name``'s exit code (negative: the signal that ended it); None while
+        it runs. For reports that must say which process failed."""
+        return self._procs[name].exitcode
+
     def join(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds in all for every child to end; True if they did."""
         deadline = time.monotonic() + timeout
