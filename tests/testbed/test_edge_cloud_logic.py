@@ -16,9 +16,9 @@ from wiswarm_zenoh.testbed.edge_cloud_report import Floor, floor_of, report, wri
 from wiswarm_zenoh.testbed.edge_cloud_run import (
     EdgeCloudConfig,
     EdgeCloudResults,
+    Layers,
     Setup,
     SetupResult,
-    _Layers,
 )
 from wiswarm_zenoh.testbed.edge_cloud_topology import WanSpec
 from wiswarm_zenoh.transport.demo import Children
@@ -150,7 +150,7 @@ def test_the_setups_children_that_did_not_stop_cleanly_are_named_the_links_are_n
     with Children(ctx) as links:
         links.start("router", _stops_cleanly)
         with contextlib.ExitStack() as stack:
-            layers = _Layers(stack, links, ["router"])
+            layers = Layers(stack, links, ["router"])
             layers.start(0, "followers", _stops_cleanly)
             layers.start(1, "edge", _fails_at_its_end)
             layers.wait_ready()

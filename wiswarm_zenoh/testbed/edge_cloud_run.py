@@ -178,7 +178,7 @@ def _swarms(setup: Setup, site: Site) -> tuple[str, str]:
     return f"ec-{setup.tag}-{site.name}", f"ec-{setup.tag}-c"
 
 
-class _Layers:
+class Layers:
     """A setup's children in three layers, stopped top down (cloud, edges, followers):
     no leader sees its followers vanish, nor an edge its cloud, as a setup ends. The
     links' children (routers, relays: ``links``) are watched with them, not stopped."""
@@ -215,7 +215,7 @@ class _Layers:
         self.owner[name].wait_ready(READY_TIMEOUT)
 
 
-def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
+def _start_site(layers: Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
                 records: Path) -> None:
     """The site's followers and, but for ``direct``, its edge leader."""
     swarm, cloud = _swarms(setup, site)
@@ -237,7 +237,7 @@ def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Si
                  client_of_local_router(), edge)
 
 
-def _start(layers: _Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setup,
+def _start(layers: Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setup,
            records: Path) -> list[str]:
     """Followers, edge leaders and cloud leaders of ``setup``, ready once every pair has
     been delivered where it is measured; returns the pair names."""
@@ -269,7 +269,7 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
     events: list[str] = []
     log.info("edge-cloud: %s starting", setup.label)
     with contextlib.ExitStack() as stack:
-        layers = _Layers(stack, *links)
+        layers = Layers(stack, *links)
         pairs = _start(layers, net, config, setup, records)
         started = time.time()
         t0, t1 = started + config.warmup, started + config.warmup + config.duration
