@@ -123,6 +123,9 @@ def test_two_followers_deliver_stamped_frames_measured_and_published(
         watcher.wait("stats of both", lambda s: all(
             s.stats(f"wiswarm/s1/{name}/stats") and
             s.stats(f"wiswarm/s1/{name}/stats")[-1]["deliveries"] == 5 for name in "ab"))
+        # The leader's are put after the followers' and may still be on their way.
+        watcher.wait("the leader's stats of both", lambda s: any(
+            r["followers"] == ["a", "b"] for r in s.stats("wiswarm/s1/leader/stats")))
         for sender in senders:
             sender.close()
     record.close()
