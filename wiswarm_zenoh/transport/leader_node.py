@@ -50,6 +50,7 @@ from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
+from wiswarm_zenoh.transport.silence import SilenceLog
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.transport.stats_rounds import StatsRounds
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, fresh_attachment
@@ -133,6 +134,7 @@ class LeaderNode:
         self._inbox: queue.SimpleQueue[Arrival] = queue.SimpleQueue()
         self._stop = threading.Event()
         self.bad_input = BadInputLog(log)
+        self._silence = SilenceLog(lambda f: not self._stop.is_set() and f in self.followers)
         self._control_version = 0
         self._control_sent: tuple[int, float] = (-1, 0.0)  # (version, time) of the last put
         self._stats = StatsRounds(session, self.keys, stats_period, clock(),
@@ -329,17 +331,16 @@ class LeaderNode:
             elif isinstance(event, TimedOut):
                 self._deliveries.add(event, self._clock())
                 log.debug("poll %d of %s unanswered", event.poll_seq, event.follower)
-            elif isinstance(event, Rejected | Stale):
-                self.bad_input.report(self.keys.update(event.follower), event.reason)
+            elif isinstance(event, Rejected | Stale):  # Stale: late, after our own timeout
+                self.bad_input.report(self.keys.update(event.follower), event.reason,
+                                      expected=isinstance(event, Stale))
             elif isinstance(event, Silent) and not event.answered_before:
                 log.info("follower %s has not answered its first poll (not up yet, no "
                          "queryable, or no valid reply): probing it alone", event.follower)
             elif isinstance(event, Silent):
-                log.warning("follower %s stopped answering (its last %d polls went "
-                            "unanswered): probing it alone now", event.follower, event.polls)
+                self._silence.silent(event.follower, event.polls)
             elif isinstance(event, Answering):
-                log.info("follower %s answers again, after %.1f s", event.follower,
-                         event.silent_for)
+                self._silence.answering(event.follower, event.silent_for)
 
     def _apply_changes(self) -> None:
         for follower, joined in self._membership.apply(self._leader, self._lock, self._clock()):

@@ -35,7 +35,7 @@ from wiswarm_zenoh.transport.frames import (
 from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
 from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
-from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
+from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 log = logging.getLogger(__name__)
 
@@ -98,8 +98,11 @@ def sigterm_as_ctrl_c() -> Iterator[None]:
 
 
 def run_child(target: Callable[..., object], args: tuple[Any, ...],
-              ready: ReadySignal) -> None:
+              ready: ReadySignal, log_level: int = logging.WARNING) -> None:
     """Entry point of a ``spawn`` child: runs ``target(*args, stop, ready)`` until SIGTERM.
+    Its log lines look like its parent's (``LOG_FORMAT``, at ``log_level``): a spawned
+    process starts with no logging set up, and its warnings came out bare, with no time
+    or level to tell them by.
 
     Children stop on SIGTERM (``Process.terminate()``) rather than on a shared
     ``multiprocessing.Event``: such an event is left locked for good if a process is
@@ -109,6 +112,7 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
     only cut the interpreter's shutdown short (and it would show as a crash). SIG_IGN
     holds through the interpreter's finalisation; a Python handler does not.
     """
+    logging.basicConfig(level=log_level, format=LOG_FORMAT)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
