@@ -57,7 +57,6 @@ from wiswarm_zenoh.security.acl import Roster
 from wiswarm_zenoh.security.deploy import Plan, init
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.frames import SyntheticFrames
-from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
 from wiswarm_zenoh.transport.runners import (
     ReadySignal,
     StopSignal,
@@ -65,6 +64,7 @@ from wiswarm_zenoh.transport.runners import (
     run_router,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 SWARM = "bench"
@@ -155,7 +155,7 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
 
 
 def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds: float,
-                  config: LeaderConfig, control_period: float) -> tuple[float, float]:
+                  config: LeaderConfig) -> tuple[float, float]:
     """(c): polls/s of the LeaderNode while another session subscribes to its delivery
     stream (``leader/deliveries``), and the records per second that session got."""
     records = [0]
@@ -166,12 +166,12 @@ def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds:
     with watcher.open() as watching:  # its subscriber (held) goes with it
         _held = watching.declare_subscriber(f"wiswarm/{SWARM}/leader/deliveries", count)
         start = time.perf_counter()
-        rate, _, _ = leader_round(session, n, seconds, config, control_period)
+        rate, _, _ = leader_round(session, n, seconds, config)
         return rate, records[0] / (time.perf_counter() - start)
 
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
-                 control_period: float, **node: Any
+                 **node: Any
                  ) -> tuple[float, list[dict[str, Any]], float]:
     """(b): polls/s of the LeaderNode (made with ``node``'s further arguments), its
     per-follower stats at the end, and the share of its polls sent on a pick made while
@@ -184,8 +184,7 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
         if len(joined) == n:
             everyone.set()
 
-    with LeaderNode(session, SWARM, config, on_join=on_join,
-                    control_period=control_period, **node) as leader:
+    with LeaderNode(session, SWARM, config, on_join=on_join, **node) as leader:
         if not everyone.wait(READY_TIMEOUT):
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
         while leader.polls < WARM_UP_ROUNDS * n:
@@ -236,7 +235,8 @@ def measure(n: int, args: argparse.Namespace) -> None:
                                True)) for names in hosts),
     ]
     with children(jobs):
-        config = LeaderConfig(policy=args.policy, timeout=args.timeout)
+        config = LeaderConfig(policy=args.policy, timeout=args.timeout,
+                          control_period=args.control_period)
         with node_spec.open() as session:
             wait_for_routes(session, followers, args.timeout)
             bare_round(session, followers, 0.5, args.timeout)  # warm up
@@ -247,13 +247,12 @@ def measure(n: int, args: argparse.Namespace) -> None:
                     if kind == "bare":
                         bare.append(bare_round(session, followers, args.seconds, args.timeout))
                     elif kind == "leader":
-                        rate, stats, fast = leader_round(session, n, args.seconds, config,
-                                                         args.control_period)
+                        rate, stats, fast = leader_round(session, n, args.seconds, config)
                         leader.append(rate)
                         fast_shares.append(fast)
                     else:
                         watched.append(watched_round(session, node_spec, n, args.seconds,
-                                                     config, args.control_period))
+                                                     config))
         report(n, args, bare, leader, stats, statistics.median(fast_shares))
         if watched:
             report_watched(leader, watched)
@@ -295,7 +294,8 @@ def swarm(kind: str, followers: list[str], args: argparse.Namespace,
 def measure_secure(n: int, args: argparse.Namespace) -> None:
     """The leader's polls/s in a secured swarm and in open ones, rounds alternating."""
     followers = [f"uav{i}" for i in range(n)]
-    config = LeaderConfig(policy=args.policy, timeout=args.timeout)
+    config = LeaderConfig(policy=args.policy, timeout=args.timeout,
+                          control_period=args.control_period)
     rates: dict[str, list[float]] = {kind: [] for kind in SWARMS}
     means: dict[str, list[float]] = {kind: [] for kind in SWARMS}
     with tempfile.TemporaryDirectory() as tmp:
@@ -307,8 +307,7 @@ def measure_secure(n: int, args: argparse.Namespace) -> None:
             sessions = {kind: stack.enter_context(leaders[kind].open()) for kind in SWARMS}
             for i in range(args.rounds):
                 for kind in SWARMS if i % 2 == 0 else SWARMS[::-1]:
-                    rate, stats, _ = leader_round(sessions[kind], n, args.seconds, config,
-                                                  args.control_period)
+                    rate, stats, _ = leader_round(sessions[kind], n, args.seconds, config)
                     rates[kind].append(rate)
                     means[kind].append(statistics.mean(float(r["mean_aoi_s"]) for r in stats))
     print(f"\nN = {n}, {args.frame_bytes} B updates, {args.rounds} rounds of {args.seconds:g} s "

@@ -54,7 +54,6 @@ from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.wire import Poll, encode_poll
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD
 from wiswarm_zenoh.transport.runners import (
     ReadySignal,
     StopSignal,
@@ -216,10 +215,10 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             threading.setprofile(partial(profile_poll_thread, profiler))
         start = time.perf_counter()
         config = LeaderConfig(policy=args.policy, timeout=args.timeout,
-                              timeout_floor=args.timeout_floor)
+                              timeout_floor=args.timeout_floor,
+                              control_period=args.control_period)
         with LeaderNode(session, SWARM, config,
-                        on_join=watch.on_join, on_delivery=watch.on_delivery,
-                        control_period=args.control_period) as node:
+                        on_join=watch.on_join, on_delivery=watch.on_delivery) as node:
             threading.setprofile(None)
             poll_thread = next(t for t in threading.enumerate() if t.name == f"leader-{SWARM}")
             assert poll_thread.native_id is not None
@@ -366,7 +365,7 @@ def main() -> None:
     parser.add_argument("--timeout-floor", type=float, default=LeaderConfig.timeout_floor,
                         help="the shortest adaptive timeout (a host descheduled longer "
                         "makes a poll time out, and its follower is polled less for a while)")
-    parser.add_argument("--control-period", type=float, default=CONTROL_PERIOD,
+    parser.add_argument("--control-period", type=float, default=LeaderConfig.control_period,
                         help="seconds between repeats of unchanged control (each wakes every "
                         "follower of every host)")
     parser.add_argument("--profile", type=int, default=0, metavar="K",

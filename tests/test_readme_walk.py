@@ -1,7 +1,10 @@
-"""The README's walk as a newcomer takes it, each command a process of its own started
-as the README says: the parts that fit in CI time. A run with no fault must show no
-traceback, no WARNING or ERROR line (ours or Zenoh's) and at most 10 log lines per
-process per minute; each misstep a newcomer makes must be named in its one line.
+"""The walk a newcomer takes through the README and the guides it links to
+(docs/getting-started.md, docs/guides/swarm.md, security.md, dashboard.md,
+standby-edge-cloud.md, testbed.md), each command
+a process of its own started as the pages say: the parts that fit in CI time. A run
+with no fault must show no traceback, no WARNING or ERROR line (ours or Zenoh's) and at
+most 10 log lines per process per minute; each misstep a newcomer makes must be named
+in its one line.
 
 Covered: a swarm by hand (router, leader, two followers), a secured swarm (``wiswarm
 security init``) with an observer's dashboard, a short demo on loopback, two sites and a

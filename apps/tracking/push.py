@@ -62,11 +62,10 @@ class PushLeader:
             self._entries[follower] = checked
         self._changed.set()
 
-    def observe_urgency(self, follower: str, v: float) -> float:
+    def observe_urgency(self, follower: str, v: float) -> None:
         """Nothing is scheduled here: the urgency is only kept for display."""
         with self._lock:
             self._weights[follower] = v
-        return v
 
     def weights(self) -> dict[str, float]:
         with self._lock:

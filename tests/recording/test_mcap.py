@@ -59,7 +59,7 @@ def test_every_channel_decodes_and_no_delivery_is_missing(swarm: Swarm, tmp_path
         swarm.publish_tracking(watcher, b"{not json")
         eventually("the bad tracking counted", lambda: recording.channels.bad_input.total() >= 1)
         eventually("a whole round of stats", lambda: recording.channels.counts[
-            f"{ROOT}/leader/stats"] >= 1)
+            f"{ROOT}/leader/stats"] >= 1 and recording.channels.counts[f"{ROOT}/uav0/stats"] >= 1)
         swarm.stack.close()  # the leader flushes its last batch of deliveries as it goes
         last = swarm.recorder.deliveries[-1].delivered_at
         batches.wait("the leader's last batch", lambda b: any(

@@ -140,10 +140,13 @@ def test_wiswarm_sits_on_the_round_robin_floor(n: int) -> None:
 def test_wiswarm_sits_on_the_floor_where_the_reply_does_not_set_the_pace(
     link: LinkParams, host_delay: float
 ) -> None:
-    result = _run(n=4, system="wiswarm", duration=30.0, seed=1, host_delay=host_delay, link=link)
-    floor = round_robin_floor(4, PAPER_FRAME_BYTES, link, host_delay, sample_rate=100.0)
+    # Control with every poll, as the paper sends it: the polls' bytes set the pace.
+    result = _run(n=4, system="wiswarm", duration=30.0, seed=1, host_delay=host_delay, link=link,
+                  control_period=0.0)
+    floor = round_robin_floor(4, PAPER_FRAME_BYTES, link, host_delay, sample_rate=100.0,
+                              control_period=0.0)
     assert result.mean("mean_aoi_s") == pytest.approx(floor, rel=0.02)
-    s, _ = poll_cycle(PAPER_FRAME_BYTES, link, host_delay)
+    s, _ = poll_cycle(PAPER_FRAME_BYTES, link, host_delay, control_period=0.0)
     assert result.duration / result.channel["polls"] == pytest.approx(s, rel=0.01)
     assert result.channel["uplink_utilisation"] < 0.95
 

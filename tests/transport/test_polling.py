@@ -128,9 +128,13 @@ def test_with_two_followers_most_polls_go_out_the_moment_the_reply_before_came(
              for fid in ("uav1", "uav2")]
     with LeaderNode(sessions.node(port), SWARM, **recorder.callbacks()) as leader:
         recorder.wait("both joined", lambda r: len(r.joins) == 2)
-        recorder.wait("200 deliveries", lambda r: len(r.deliveries) >= 200)
-        polls, fast = leader.polls, leader.fast_polls
-    assert fast >= 0.5 * polls  # the rest: the first polls, before routes settle, say
+        # Both answering: a first poll can go unanswered (Zenoh may route a query before
+        # the queryable's declaration), and a silent follower's probes take no pick.
+        recorder.wait("both delivered", lambda r: r.count("uav1") and r.count("uav2"))
+        polls0, fast0, seen = leader.polls, leader.fast_polls, len(recorder.deliveries)
+        recorder.wait("200 deliveries", lambda r: len(r.deliveries) >= seen + 200)
+        polls, fast = leader.polls - polls0, leader.fast_polls - fast0
+    assert fast >= 0.9 * polls
     for node in nodes:  # and the usual path's rule still holds: each in turn, equal shares
         delivered = [d for d in recorder.deliveries if d.follower == node.follower_id]
         assert len(delivered) >= 80

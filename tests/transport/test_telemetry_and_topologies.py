@@ -9,7 +9,7 @@ import os
 import zenoh
 
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
+from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 
 from .helpers import Recorder, Samples, Sessions, wait_until_known
 

@@ -36,8 +36,8 @@ from wiswarm_zenoh.core import AoITracker, WireError
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.leader_node import STATS_PERIOD
 from wiswarm_zenoh.transport.runners import DeliveryRecord
+from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, to_json
 
 log = logging.getLogger(__name__)

@@ -47,7 +47,7 @@ from wiswarm_zenoh.options import (
 from wiswarm_zenoh.security.checks import check_identity, check_swarm
 from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
-from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
+from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.report import LiveTable, PollRates, format_table
 from wiswarm_zenoh.transport.runners import (
     FollowerOptions,
@@ -175,14 +175,13 @@ def _leader(args: argparse.Namespace) -> int:
     if args.system != "wiswarm":
         return _receiver(args)
     config = _checked(LeaderConfig, **_given(args, "policy", "timeout", "window", "alpha",
-                                             "in_flight", "timeout_floor"))
-    control_period = CONTROL_PERIOD if args.control_period is None else args.control_period
+                                             "in_flight", "timeout_floor", "control_period"))
     if args.site is not None and args.upstream is None:
         raise UsageError("--site names this leader's site in the parent swarm: give the "
                          "parent with --upstream PARENT_SWARM")
     if args.upstream == args.swarm:
         raise UsageError(f"--upstream must be another swarm than --swarm ({args.swarm!r})")
-    options = LeaderOptions(args.swarm, config, args.duration, control_period, args.record,
+    options = LeaderOptions(args.swarm, config, args.duration, args.record,
                             name=args.name, upstream=args.upstream, site=args.site,
                             bridge=ros2_options(args))
     spec = _spec(args, "peer")
@@ -295,7 +294,7 @@ def register(subparsers: Any) -> None:
                         help=f"wiswarm: weight EMA factor in [0, 1] (default {defaults.alpha})")
     leader.add_argument("--control-period", type=finite_float(0.0), metavar="SECONDS",
                         help="wiswarm: repeat unchanged control information this often "
-                        f"(default {CONTROL_PERIOD}); 0 puts it with every poll")
+                        f"(default {LeaderConfig.control_period}); 0 puts it with every poll")
     leader.add_argument("--name", type=node_name("leader name"),
                         help="wiswarm: this leader's name among the swarm's leaders (default: "
                         "host and process id). Any number may run: the oldest polls, the "

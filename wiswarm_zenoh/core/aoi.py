@@ -38,6 +38,7 @@ class AoITracker:
         self._peak = 0.0
 
     def age(self, now: float) -> float:
+        """Seconds since the freshest update delivered was generated (never negative)."""
         return max(0.0, now - self.tau)
 
     def deliver(self, timestamp: float, now: float) -> bool:

@@ -97,6 +97,11 @@ class LeaderConfig:
     pace as its updates show it (``sources``): a follower whose source is slower than
     the polls is polled when it is due, and no poll goes out while none is. False:
     every source is taken as always fresh (the paper's index exactly).
+
+    ``control_period``: the control information goes with the first poll after it
+    changes (new control, a follower joining, a new epoch) and is repeated with a poll
+    at least this often (seconds); 0 sends it with every poll, as the paper does.
+    Simulator and Zenoh shell send it as the core says, so they send the same.
     """
 
     policy: str = "whittle"
@@ -116,6 +121,7 @@ class LeaderConfig:
     price_by_time: bool = True
     in_flight: InFlight = 1
     pace_sources: bool = True
+    control_period: float = 0.1
 
     def __post_init__(self) -> None:
         from wiswarm_zenoh.core.policies import POLICIES
@@ -150,5 +156,7 @@ class LeaderConfig:
         _require(self.max_fragments >= 1, "max_fragments", ">= 1", self.max_fragments)
         _require(self.max_update_bytes >= 1, "max_update_bytes", ">= 1", self.max_update_bytes)
         _require(self.clock_samples >= 1, "clock_samples", ">= 1", self.clock_samples)
+        _require(math.isfinite(self.control_period) and self.control_period >= 0,
+                 "control_period", ">= 0 seconds", self.control_period)
         _require(math.isfinite(self.timeout_floor) and self.timeout_floor > 0,
                  "timeout_floor", "> 0 seconds", self.timeout_floor)

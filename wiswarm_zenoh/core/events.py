@@ -66,6 +66,7 @@ class Answering:
 
 
 Event = Delivered | TimedOut | Rejected | Stale | Silent | Answering
+"""What ``Leader.next_event`` returns: one of these, or None when there is nothing left."""
 
 
 class EventSource(Protocol):

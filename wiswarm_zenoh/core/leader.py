@@ -5,24 +5,21 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
-from wiswarm_zenoh.core.events import Answering, Event, Rejected, Silent, Stale, TimedOut, drain
-from wiswarm_zenoh.core.fast_path import quick_choice
+from wiswarm_zenoh.core.events import Event, Rejected, Stale, drain
 from wiswarm_zenoh.core.in_flight import InFlightTuner
 from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.plausibility import implausible
 from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
-from wiswarm_zenoh.core.poll_records import Pick, PollLife, PollRequest, Stage
-from wiswarm_zenoh.core.reply_work import settle_update, take_fragment
-from wiswarm_zenoh.core.scheduling import choose, pick_after
+from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
+from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
 from wiswarm_zenoh.core.wire import (
     Poll,
-    Reply,
     Waypoint,
     decode_reply,
     encode_poll,
@@ -42,18 +39,19 @@ class Leader:
     many as ``in_flight.InFlightTuner`` finds worth it).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    membership (``add_/remove_/forget_follower``), ``receive_reply(follower, data, now)``
-    for every reply, ``handle_timer(now)`` at ``get_timer()``. Output: ``next_poll(now)``
-    until None, then ``next_event()`` until None. Bad bytes never raise: they come back
-    as ``Rejected`` events and are counted against the follower.
+    membership (``add_/remove_/forget_follower``), the application's control and
+    weights, ``receive_reply(follower, data, now)`` for every reply,
+    ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
+    ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once. Output:
+    ``next_poll(now)`` until None (each poll, with the control broadcast when it is due:
+    ``config.control_period``), ``next_event()`` until None (it only pops). Bad bytes
+    never raise: they come back as ``Rejected`` events, counted against the follower.
 
-    A valid reply ends its poll at once; the rest of taking it waits in the poll's
-    record (``poll_records``), done in arrival order by ``next_event`` after the shell
-    sent the next poll, or by ``next_poll`` when choosing needs it first. When
-    ``next_event`` has nothing left while one poll is out, the core picks whom to poll
-    after it (``scheduling.pick_after``, ages at the reply's expected time); if the reply
-    comes as expected and the polled follower's new index (clock offset as before it)
-    does not beat that pick, ``next_poll`` sends it at once (``fast_polls``).
+    With one poll out, the ``next_poll`` call that finds no room picks whom to poll
+    after it (``scheduling.pick_after``: ages at the reply's expected time); if the
+    reply comes as expected and nothing else moved, the next ``next_poll`` weighs only
+    the polled follower's new index against that pick (``scheduling.still_holds``,
+    ``fast_polls``) instead of a pass over every follower.
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
@@ -73,17 +71,20 @@ class Leader:
         self._control_seq = 0
         self._waypoints: dict[str, list[Waypoint]] = {}
         self._packed_control: bytes | None = None  # cache of the packed entries
-        self._flights: dict[str, PollLife] = {}  # the polls out (stage SENT), by follower
-        self._waiting: deque[PollLife] = deque()  # answered polls whose work waits
+        self._control_due = True  # changed since last sent: goes with the next poll
+        self._control_sent_at = -math.inf
+        self._flights: dict[str, Flight] = {}  # the polls out, by follower
         self._events: deque[Event] = deque()
         self._pick: Pick | None = None
         self._picked_for = 0  # the poll a pick was last tried for
+        self._answered_seq = 0  # the poll answered last
         self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
         self.site_links = SiteLinks()
         self.tuner = InFlightTuner() if self.config.in_flight == "auto" else None
 
     @property
     def followers(self) -> list[str]:
+        """The followers it polls now, in the order they were added."""
         return list(self.table.ids)
 
     @property
@@ -121,8 +122,8 @@ class Leader:
         not a fresh start. Followers given one ``link`` (a site) share its p."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
-        self._advance(settle=True)
         self._pick = None
+        self._control_due = True  # the newcomer needs the control now
         peer = self.table.peers.get(follower)
         if peer is not None:
             peer.restart()
@@ -131,10 +132,10 @@ class Leader:
         if back is not None:
             back.restart()
             back.left_at = None
-        peer = back or Peer.new(self.config, now, self.table.poll_times)
+        peer = back or Peer.new(follower, self.config, now, self.table.poll_times)
         if link is not None:
             self.site_links.attach(follower, peer, link)
-        self.table.add(follower, peer)
+        self.table.add(peer)
 
     def remove_follower(self, follower: str, now: float | None = None) -> None:
         """A follower left (its liveliness token went) at ``now``: it is polled no more,
@@ -146,8 +147,6 @@ class Leader:
             return
         peer.left_at = now
         self._flights.pop(follower, None)
-        self._waiting = deque(life for life in self._waiting
-                              if life.request.follower != follower)
         self._pick = None
         self.table.remove(follower)
         self.site_links.detach(follower)
@@ -165,6 +164,19 @@ class Leader:
         self._peer(follower)
         self._waypoints[follower] = validate_waypoints(waypoints)
         self._packed_control = None
+        self._control_due = True
+
+    def rise_above(self, heard: int, now: float, weights: Mapping[str, float] | None = None,
+                   control: Mapping[str, Sequence[Sequence[float]]] | None = None) -> int:
+        """Become (or stay) the active leader with an epoch above any other leader's, so
+        that followers take this one's polls: above ``heard`` (the largest heard,
+        whatever the clocks) and the time ``now`` in microseconds (any leader active
+        before has a smaller one, even one never heard, as across a healed partition).
+        With the ``weights`` and ``control`` of the leader it takes over from, if given
+        (``take_over``); the epoch taken."""
+        epoch = max(self.epoch, heard + 1, int(now * 1e6))
+        self.take_over(epoch, weights or {}, control or {})
+        return epoch
 
     def take_over(self, epoch: int, weights: Mapping[str, float],
                   control: Mapping[str, Sequence[Sequence[float]]]) -> None:
@@ -176,20 +188,17 @@ class Leader:
         for follower, weight in weights.items():
             peer = self.table.peers.get(follower)
             if peer is not None and math.isfinite(weight) and weight >= 0.0:
-                peer.weight.value = weight
-                self.table.sync(follower)
+                peer.set_weight(weight)
         for follower, waypoints in control.items():
             if follower in self.table.peers:
                 self._waypoints[follower] = validate_waypoints(waypoints)
         self._packed_control = None
+        self._control_due = True  # the followers learn the new epoch at once
         self._pick = None
 
     def observe_urgency(self, follower: str, v: float) -> float:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
-        weight = self._peer(follower).weight.observe(v)
-        self.table.sync(follower)
-        self._pick = None
-        return weight
+        return self._peer(follower).observe_urgency(v)
 
     def receive_reply(self, follower: str, data: bytes, now: float) -> None:
         """One reply from ``follower`` (the key it came from), whatever it holds."""
@@ -204,29 +213,37 @@ class Leader:
         except WireError as exc:
             self._reject(peer, follower, str(exc))
             return
-        life = self._flights.get(follower)
-        if life is None or reply.poll_seq != life.request.poll_seq:
-            self._not_in_flight(peer, follower, reply, now)
+        flight = self._flights.get(follower)
+        if flight is None or reply.poll_seq != flight.request.poll_seq:
+            if not peer.late_reply(reply, now):
+                self._events.append(Stale(follower,
+                                          f"reply to poll {reply.poll_seq}, not one out"))
             return
         if reply.follower != follower:
             self._reject(peer, follower, f"reply claims to come from {reply.follower!r}")
             return
-        reason = implausible(life.request, peer, reply, now)
-        if reason is not None:  # not this follower's answer: the poll waits for the real one
-            self._reject(peer, follower, reason)
+        request = flight.request
+        refusal = implausible(peer.clock, request.sent_at, reply, now, flight.refused)
+        if refusal is not None:  # not this follower's answer: the poll waits for the real one
+            reason, by_clock = refusal
+            peer.refused(first_for_poll=by_clock and not flight.refused)
+            flight.refused |= by_clock
+            self._events.append(Rejected(follower, reason))
             return
         del self._flights[follower]
-        life.stage, life.reply, life.answered_at = Stage.ANSWERED, reply, now
-        self._waiting.append(life)
+        self._answered_seq = request.poll_seq
+        self._complete(request, now, lambda: peer.answered(request.sent_at, reply, now))
+        if self.tuner is not None:  # the answers that carry something are the throughput
+            self.tuner.completed(reply.fragment is not None, now, len(self.table.ids))
 
     def handle_timer(self, now: float) -> None:
         """Every poll out whose deadline has passed is unanswered."""
-        expired = [life for life in self._flights.values() if now >= life.request.deadline]
+        expired = [flight for flight in self._flights.values()
+                   if now >= flight.request.deadline]
         if not expired:
             return
-        self._advance(settle=True)  # what came before them is reported before them
-        for life in sorted(expired, key=lambda life: life.request.deadline):
-            self._unanswered(life, now)
+        for flight in sorted(expired, key=lambda flight: flight.request.deadline):
+            self._unanswered(flight, now)
 
     def receive_end(self, follower: str, poll_seq: int, now: float) -> None:
         """No more replies can come to poll ``poll_seq`` of ``follower``: the shell's
@@ -236,46 +253,35 @@ class Leader:
         meanwhile kept it open only while the genuine answer could still come. (The
         grace: a reply and the get's end may come over two paths, a peer's own link
         and the router's, and the end first.)"""
-        life = self._flights.get(follower)
-        if life is None or life.request.poll_seq != poll_seq:
+        flight = self._flights.get(follower)
+        if flight is None or flight.request.poll_seq != poll_seq:
             return  # answered, or timed out before (a late reply may still be on its way)
-        life.request.deadline = min(life.request.deadline, now + END_GRACE)
+        flight.request.deadline = min(flight.request.deadline, now + END_GRACE)
 
     # --- output ---
 
     def next_poll(self, now: float) -> PollRequest | None:
-        """The poll to send now, put in flight; None while ``config.in_flight`` are out,
-        nobody is left to poll, or no poll can find anything new before ``get_timer()``
-        (every source paced and none due, no probe due: ``sources``)."""
+        """The poll to send now, put in flight; None while ``config.in_flight`` are out
+        (then, with one out, the pick for after it is made), nobody is left to poll, or
+        no poll can find anything new before ``get_timer()`` (every source paced and
+        none due, no probe due: ``sources``)."""
         out = self._flights
         if len(out) >= self.polls_allowed or len(out) >= len(self.table.ids):
+            self._pick_ahead()
             return None
         if self._waits_for_sources(now):
             return None
-        choice = self._quick_choice(now) if not out else None
-        if choice is None:
-            self._advance(settle=False)
-            choice = choose(self.table, self.policy, self.slot, now,
-                            {self.table.index(f) for f in out})
-        else:
+        pick, self._pick = self._pick, None
+        if not out and pick is not None and pick.poll_seq == self._answered_seq \
+                and still_holds(pick, self.table, now):
             self.fast_polls += 1
-        return self._start_poll(choice, now)
+            return self._start_poll(pick.choice, now)
+        return self._start_poll(choose(self.table, self.policy, self.slot, now,
+                                       {self.table.index(f) for f in out}), now)
 
     def next_event(self) -> Event | None:
-        """What happened, oldest first, doing the work that waited; None when nothing is
-        left (and then, with a poll out, the pick for after it is made)."""
-        if not self._events and self._waiting:
-            self._advance(settle=True)
-        if self._events:
-            return self._events.popleft()
-        life = next(iter(self._flights.values())) if len(self._flights) == 1 else None
-        if life is not None and self.polls_allowed == 1 \
-                and self._picked_for != life.request.poll_seq:
-            self._picked_for = life.request.poll_seq
-            self._pick = pick_after(self.table, self.policy, self.slot, life.request.poll_seq,
-                                    self.table.index(life.request.follower),
-                                    life.request.sent_at + self.slot)
-        return None
+        """What happened, oldest first; None when nothing is left."""
+        return self._events.popleft() if self._events else None
 
     def get_timer(self) -> float | None:
         """When ``handle_timer`` is due: the earliest deadline of the polls out, or,
@@ -286,15 +292,14 @@ class Leader:
                 and len(flights) < min(self.polls_allowed, len(self.table.ids)):
             wake = self.table.wake_at()
         if flights:
-            wake = min(wake, min(life.request.deadline for life in flights.values()))
+            wake = min(wake, min(flight.request.deadline for flight in flights.values()))
         return wake if math.isfinite(wake) else None
 
     def stats(self, follower: str, now: float) -> FollowerStats:
-        """One follower's figures, every reply so far taken (one that left: ageing)."""
-        self._advance(settle=True)
+        """One follower's figures (one that left: ageing)."""
         if follower in self._departed:
-            return self._departed[follower].stats(follower, now, present=False)
-        return self._peer(follower).stats(follower, now)
+            return self._departed[follower].stats(now, present=False)
+        return self._peer(follower).stats(now)
 
     # --- inside ---
 
@@ -313,107 +318,62 @@ class Leader:
             raise ValueError(f"unknown follower {follower!r}") from None
 
     def _reject(self, peer: Peer, follower: str, reason: str) -> None:
-        peer.errors += 1
+        peer.refused(first_for_poll=False)
         self._events.append(Rejected(follower, reason))
 
-    def _unanswered(self, life: PollLife, now: float) -> None:
-        """The poll of ``life`` ends with no valid answer (a reply may still come after
-        it, and teach how slow the link is)."""
-        request, peer = life.request, life.peer
+    def _unanswered(self, flight: Flight, now: float) -> None:
+        """The poll of ``flight`` ends with no valid answer (a reply may still come
+        after it, and teach how slow the link is)."""
+        request, peer = flight.request, flight.peer
         del self._flights[request.follower]
-        peer.timed_out.append((request.poll_seq, request.sent_at))
-        was_silent = peer.silent
-        self._complete(request, peer, answered=False, now=now)
+        self._pick = None
+        self._complete(request, now, lambda: peer.unanswered(request.poll_seq,
+                                                             request.sent_at, now))
         if self.tuner is not None:
             self.tuner.completed(False, now, len(self.table.ids))
-        peer.timeouts += 1
-        self.table.sync(request.follower)
-        self._events.append(TimedOut(request.follower, request.poll_seq))
-        if peer.silent and not was_silent:
-            peer.silent_since = now
-            ever = peer.reliability.ever_answered
-            self._events.append(Silent(request.follower,
-                                       self.config.window if ever else peer.timing.unanswered,
-                                       ever))
 
-    def _not_in_flight(self, peer: Peer, follower: str, reply: Reply, now: float) -> None:
-        """A valid reply to a poll that is not out: late (it lengthens the follower's
-        timeout: its link is slower than measured) or stale."""
-        peer.stale += 1
-        sent_at = peer.late(reply.poll_seq) if reply.follower == follower else None
-        if sent_at is None:
-            self._events.append(Stale(follower, f"reply to poll {reply.poll_seq}, not one out"))
+    def _complete(self, request: PollRequest, now: float, outcome: Callable[[], list[Event]],
+                  ) -> None:
+        """The poll ``request`` is over: the slot, the follower's ``outcome`` (its
+        events), and the p it shares with a site's other followers."""
+        duration = max(now - request.sent_at, 1e-6)
+        self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
+        peer = self.table.peers[request.follower]
+        before = peer.reliability.value
+        self._events.extend(outcome())
+        if peer.reliability.value != before:
+            self._events.extend(self.site_links.shared_change(
+                request.follower, before, self.table, self.config.window, now))
+
+    def _pick_ahead(self) -> None:
+        """With one poll out (the paper's rule), whom to poll after it (once per poll)."""
+        if len(self._flights) != 1 or self.polls_allowed != 1:
             return
-        # A follower silent since its first poll stays so until a probe is answered: a
-        # late reply proves nothing of who sent it (no clock of it is known to judge by).
-        peer.timing.answered(now - sent_at)
-        self.table.sync(follower)
-
-    def _quick_choice(self, now: float) -> int | None:
-        """The pick made while the last poll was out, if it still holds (``fast_path``)."""
-        pick, self._pick = self._pick, None
-        if pick is None or len(self._waiting) != 1:
-            return None  # nothing picked, or more work waiting
-        return quick_choice(pick, self._waiting[0], self.table, self.site_links, self.slot,
-                            self._pacing, now)
+        request = next(iter(self._flights.values())).request
+        if self._picked_for == request.poll_seq:
+            return
+        self._picked_for = request.poll_seq
+        self._pick = pick_after(self.table, self.policy, self.slot, request.poll_seq,
+                                self.table.index(request.follower), request.sent_at + self.slot)
 
     def _start_poll(self, choice: int, now: float) -> PollRequest:
-        """Put a poll of the follower at ``choice`` in the table in flight."""
+        """Put a poll of the follower at ``choice`` in the table in flight, with the
+        control information if it changed or ``config.control_period`` has passed."""
         follower = self.table.ids[choice]
         peer = self.table.peers[follower]
         self._poll_seq += 1
-        self._control_seq += 1
         self.polls += 1
-        peer.polls += 1
-        if self._packed_control is None:
-            self._packed_control = pack_entries(self._waypoints)
+        peer.polled()
+        control = None
+        if self._control_due or now - self._control_sent_at >= self.config.control_period:
+            if self._packed_control is None:
+                self._packed_control = pack_entries(self._waypoints)
+            control, self._control_due, self._control_sent_at = self._packed_control, False, now
+            self._control_seq += 1
         poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
         request = PollRequest(
             follower, self._poll_seq, encode_poll(poll), now + peer.timing.timeout, now,
-            self._control_seq, self._packed_control, self.epoch,
+            self._control_seq, control, self.epoch,
         )
-        self._flights[follower] = PollLife(request, peer)
+        self._flights[follower] = Flight(request, peer)
         return request
-
-    def _advance(self, settle: bool) -> None:
-        """The work that waited, in arrival order: each answer's outcome, clock sample
-        and fragment; with ``settle``, each whole update's checksum, AoI and delivery."""
-        if not self._waiting:
-            return
-        left: deque[PollLife] = deque()
-        for life in self._waiting:
-            if life.stage is Stage.ANSWERED:
-                self._take_answer(life)
-            if life.stage is Stage.UNSETTLED:
-                if settle:
-                    self._events.extend(settle_update(life, self.table))
-                else:
-                    left.append(life)
-        self._waiting = left
-
-    def _take_answer(self, life: PollLife) -> None:
-        """A valid answer's effects: the poll's outcome, the clock, the fragment."""
-        request, peer, reply, now = life.request, life.peer, life.reply, life.answered_at
-        assert reply is not None
-        if peer.silent:
-            self._events.append(Answering(request.follower, now - peer.silent_since))
-        self._complete(request, peer, answered=True, now=now)
-        peer.clock.add(request.sent_at, reply.received_at, reply.sent_at, now)
-        self._events.extend(take_fragment(life))
-        if self.tuner is not None:  # the answers that carry something are the throughput
-            self.tuner.completed(reply.fragment is not None, now, len(self.table.ids))
-        self.table.sync(request.follower)
-
-    def _complete(self, request: PollRequest, peer: Peer, answered: bool, now: float) -> None:
-        """The poll ``request`` is over (the caller syncs the policy columns)."""
-        duration = max(now - request.sent_at, 1e-6)
-        self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
-        if answered:
-            peer.timing.answered(duration)
-        cfg = self.config
-        before = peer.reliability.value
-        peer.record_poll(answered, now, cfg.probe_interval, cfg.probe_max)
-        if peer.reliability.value != before:
-            self._events.extend(self.site_links.shared_change(
-                request.follower, before, self.table, cfg.window, now))
-

@@ -19,6 +19,7 @@ from typing import Literal, TypeGuard
 VERSION = 2  # 2: polls and control carry the leader's epoch
 MAX_ID_BYTES = 128  # UTF-8
 MAX_WAYPOINTS = 256
+"""The most waypoints one follower's control entry may carry."""
 MAX_CONTROL_ENTRIES = 100_000
 UINT32 = 2**32 - 1  # the widest unsigned integers on the wire
 UINT64 = 2**64 - 1
@@ -26,6 +27,7 @@ MAX_INT = 2**63 - 1
 MAX_SIZE = 2**40  # bytes of one update, as the wire allows (configs set tighter limits)
 
 Waypoint = tuple[float, float, float, float]  # (t, x, y, z)
+"""One waypoint ``(t, x, y, z)``: a time on the leader's clock (s) and a position (m)."""
 Want = Literal["next", "fresh"]
 WANTS: tuple[Want, ...] = ("next", "fresh")
 

@@ -3,25 +3,24 @@ follower's clock gives (see ``clock.ClockOffsetEstimator.judge``)."""
 
 from __future__ import annotations
 
-from wiswarm_zenoh.core.clock import STAMP_SLACK
-from wiswarm_zenoh.core.peers import Peer
-from wiswarm_zenoh.core.poll_records import PollRequest
+from wiswarm_zenoh.core.clock import STAMP_SLACK, ClockOffsetEstimator
 from wiswarm_zenoh.core.wire import Reply
 
 
-def implausible(flight: PollRequest, peer: Peer, reply: Reply, now: float) -> str | None:
-    """Why ``reply`` cannot be the polled follower's answer (its stamps no clock of
-    that follower gives), or None. A poll answered only by such replies counts once
-    against the clock estimate (enough of them in a row re-anchor it)."""
-    reason = peer.clock.judge(flight.sent_at, reply.received_at, reply.sent_at, now,
-                              reanchor=not flight.refused)
+def implausible(clock: ClockOffsetEstimator, sent_at: float, reply: Reply, now: float,
+                refused_before: bool) -> tuple[str, bool] | None:
+    """Why ``reply`` to a poll sent at ``sent_at`` cannot be the polled follower's
+    answer, and whether it was for its clock stamps (no clock of that follower gives
+    them: the poll then counts once against the clock's estimate), or None.
+    ``refused_before``: a reply to this poll was refused for its stamps already (a
+    streak of refused polls, not of replies to one poll, re-anchors the estimate).
+    Nothing changes here."""
+    reason = clock.judge(sent_at, reply.received_at, reply.sent_at, now,
+                         reanchor=not refused_before)
     if reason is not None:
-        if not flight.refused:
-            flight.refused = True
-            peer.clock.refused()
-        return reason
+        return reason, True
     frag = reply.fragment
     if frag is not None and frag.generated_at > reply.sent_at + STAMP_SLACK:
         return (f"update generated {frag.generated_at - reply.sent_at:.3f} s after "
-                "the reply carrying it was sent")
+                "the reply carrying it was sent"), False
     return None

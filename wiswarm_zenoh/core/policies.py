@@ -30,9 +30,11 @@ class Policy(Protocol):
 
     name: str
 
-    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int: ...
+    def choose(self, w: FloatArray, p: FloatArray, h: FloatArray) -> int:
+        """The position of the follower to poll, from weights, reliabilities and ages."""
 
-    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int: ...
+    def choose_in_lists(self, w: Floats, p: Floats, h: Floats) -> int:
+        """As ``choose``, from plain lists (faster than arrays for small swarms)."""
 
 
 class IndexPolicy(ABC):
@@ -173,6 +175,7 @@ POLICIES: dict[str, Callable[[random.Random], Policy]] = {
     "round-robin": lambda rng: RoundRobin(),
     "random": lambda rng: RandomChoice(rng),
 }
+"""Every policy by name (``LeaderConfig.policy``), each made from a ``random.Random``."""
 
 
 def make_policy(name: str, rng: random.Random | None = None) -> Policy:

@@ -70,20 +70,42 @@ def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, pol
                at: float) -> Pick | None:
     """Whom to poll after the poll ``poll_seq`` of the follower at ``polled``, if its
     reply comes at ``at``: the best of the others by the policy's index, with its value
-    (to weigh the polled follower's new index against when the reply comes). None when
-    that cannot be decided ahead: a policy without an index, a single follower, or a
-    silent one (whose probes ``choose`` times)."""
+    (to weigh the polled follower's new index against when the reply comes:
+    ``still_holds``). None when that cannot be decided ahead: a policy without an
+    index, a single follower, or a silent one (whose probes ``choose`` times)."""
     if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
         return None
     if table.plain_loops:
-        ages = fresh_ages_in_slots(table.tau, at, slot) if not table.unfresh else \
-            ages_in_slots(table.tau, table.due, table.interval, at, slot)
-        values = policy.indices(table.w, table.p, ages)
+        values = policy.indices(table.w, table.p, _ages(table, at, slot))
         values[polled] = -math.inf
         best = max(values)
-        return Pick(poll_seq, at, values.index(best), best, policy.index)  # first of equals
-    wa, pa, taua, duea, intervala = table.arrays()
-    indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, at, slot))
-    indices[polled] = -np.inf
-    choice = int(indices.argmax())
-    return Pick(poll_seq, at, choice, float(indices[choice]), policy.index)
+        choice = values.index(best)  # the first of equals, as ``choose`` takes it
+    else:
+        wa, pa, taua, duea, intervala = table.arrays()
+        indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, at, slot))
+        indices[polled] = -np.inf
+        choice = int(indices.argmax())
+        best = float(indices[choice])
+    table.watch(table.ids[polled])
+    return Pick(poll_seq, polled, at, slot, choice, best, policy)
+
+
+def still_holds(pick: Pick, table: PeerTable, now: float) -> bool:
+    """Whether ``pick`` is what ``choose`` would pick now that the polled follower's
+    answer is in: it came by the time the pick assumed (within a slot), no other
+    follower's row changed since, and the polled follower's new index at the pick's
+    time, from its row as the policy reads it, does not beat the pick."""
+    if now > pick.at + pick.slot or table.disturbed:
+        return False
+    i = pick.polled
+    ages = ages_in_slots([table.tau[i]], [table.due[i]], [table.interval[i]], pick.at,
+                         pick.slot)
+    value = pick.policy.indices([table.w[i]], [table.p[i]], ages)[0]
+    return value < pick.value or (value == pick.value and i > pick.choice)
+
+
+def _ages(table: PeerTable, at: float, slot: float) -> list[float]:
+    """Every follower's age in slots at ``at`` (plain floats)."""
+    if not table.unfresh:
+        return fresh_ages_in_slots(table.tau, at, slot)
+    return ages_in_slots(table.tau, table.due, table.interval, at, slot)

@@ -22,7 +22,7 @@ class SiteLinks:
     def attach(self, follower: str, peer: Peer, link: str) -> None:
         """``follower`` is reached over ``link``: its peer takes the link's estimator
         (the first follower's own, for a new link)."""
-        peer.reliability = self._estimators.setdefault(link, peer.reliability)
+        peer.share_reliability(self._estimators.setdefault(link, peer.reliability))
         self._members.setdefault(link, []).append(follower)
         self._link_of[follower] = link
 
@@ -57,5 +57,5 @@ class SiteLinks:
                 events.append(Silent(follower, window))
             elif not peer.silent and before <= 0.0:
                 events.append(Answering(follower, now - peer.silent_since))
-            table.sync(follower)
+            peer.reliability_moved()
         return events

@@ -201,6 +201,7 @@ def encode_control_packed(seq: int, leader_time: float, packed_entries: bytes,
 
 
 def encode_control(control: Control) -> bytes:
+    """A control message as the leader puts it on ``wiswarm/<swarm>/control``."""
     return encode_control_packed(control.seq, control.leader_time,
                                  pack_entries(control.entries), control.epoch)
 

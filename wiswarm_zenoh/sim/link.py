@@ -332,14 +332,16 @@ def link_curve(ns: Sequence[int], systems: Sequence[tuple[str, float | None]],
     return results
 
 
-def _exchange(frame_bytes: int) -> tuple[int, int, int]:
-    """Bytes of a steady poll's control message, the poll (acknowledging the reply
-    before), and the reply that carries one whole frame, as the core encodes them."""
-    leader = Leader(LeaderConfig(), random.Random(0))
+def _exchange(frame_bytes: int, control_period: float) -> tuple[int, int, int]:
+    """Bytes of a steady poll's control message (none unless ``control_period`` is 0:
+    unchanged control goes out once a period, not with each poll), the poll
+    (acknowledging the reply before), and the reply that carries one whole frame, as
+    the core encodes them."""
+    leader = Leader(LeaderConfig(control_period=control_period), random.Random(0))
     follower = Follower("uav0", FollowerConfig())
     leader.add_follower("uav0", 0.0)
     sizes = (0, 0, 0)
-    for now in (0.0, 1.0):  # the first poll acknowledges nothing yet
+    for now in (0.0, 0.001):  # the first poll acknowledges nothing yet
         follower.offer(bytes(frame_bytes), now)
         request = leader.next_poll(now)
         assert request is not None, "a lone idle follower is always polled"
@@ -349,17 +351,18 @@ def _exchange(frame_bytes: int) -> tuple[int, int, int]:
                              f"got {frame_bytes}")
         leader.receive_reply("uav0", reply, now)
         drain(leader)
-        sizes = (len(request.control), len(request.payload), len(reply))
+        sizes = (len(request.control or b""), len(request.payload), len(reply))
     return sizes
 
 
-def poll_cycle(frame_bytes: int, link: LinkParams, host_delay: float) -> tuple[float, float]:
+def poll_cycle(frame_bytes: int, link: LinkParams, host_delay: float,
+               control_period: float = LeaderConfig.control_period) -> tuple[float, float]:
     """(S, reply): the steady round-robin poll cycle, and the part of it from the
     follower's answer to the delivery. S is the slowest of the reply's bytes at the
     uplink's rate, the poll's at the downlink's, and the chain poll, turnaround, reply
     when each starts with a full bucket: tokens hide the idle time a bucket can hold."""
     air = ZenohAirtime(link)
-    control, poll, reply = _exchange(frame_bytes)
+    control, poll, reply = _exchange(frame_bytes, control_period)
     down = sum(air.unicast_busy(ip) for size in (control, poll) for ip in air.udp_packets(size))
     up = sum(air.unicast_busy(ip) for ip in air.udp_packets(reply))
     up_s, down_s = up * 8 / link.rate_bps, down * 8 / link.down_bps
@@ -374,13 +377,14 @@ def poll_cycle(frame_bytes: int, link: LinkParams, host_delay: float) -> tuple[f
 
 
 def round_robin_floor(n: int, frame_bytes: int, link: LinkParams, host_delay: float,
-                      sample_rate: float | None = None) -> float:
+                      sample_rate: float | None = None,
+                      control_period: float = LeaderConfig.control_period) -> float:
     """WiSwarm's mean AoI (s) polling N equal followers in turn over a lossless link:
     S (N/2 + 1) less the part of each cycle before the follower answers (it samples
     then), plus half the camera's period if it samples at ``sample_rate`` (None: a
     fresh update every poll)."""
     if n < 1:
         raise ValueError(f"n must be >= 1, got {n}")
-    s, reply = poll_cycle(frame_bytes, link, host_delay)
+    s, reply = poll_cycle(frame_bytes, link, host_delay, control_period)
     camera = 0.0 if sample_rate is None else 0.5 / sample_rate
     return s * n / 2 + reply + camera

@@ -56,6 +56,8 @@ class Workload:
     price_by_time: bool = True
     timeout: float = 0.3
     adaptive_timeout: bool = True
+    # seconds between repeats of unchanged control (LeaderConfig); 0: with every poll
+    control_period: float = LeaderConfig.control_period
 
     def __post_init__(self) -> None:
         if self.n < 1:
@@ -80,7 +82,8 @@ class Workload:
 
     def leader_config(self) -> LeaderConfig:
         return LeaderConfig(policy=self.policy, price_by_time=self.price_by_time,
-                            timeout=self.timeout, adaptive_timeout=self.adaptive_timeout)
+                            timeout=self.timeout, adaptive_timeout=self.adaptive_timeout,
+                            control_period=self.control_period)
 
 
 DIES_AT = 1.0  # seconds: when a dead follower's link stops delivering, under WiSwarm

@@ -103,7 +103,9 @@ class WiswarmNetwork:
             return
         i = self._index[request.follower]
         leader = self._leader_station
-        self._send_datagram(leader, len(request.control), 1.0, partial(_ignore), broadcast=True)
+        control = request.control
+        if control is not None:
+            self._send_datagram(leader, len(control), 1.0, partial(_ignore), broadcast=True)
         hook = partial(self._poll_sent, request)
         self._send_datagram(leader, len(request.payload), self._p[i], hook)
         self._timer_version += 1

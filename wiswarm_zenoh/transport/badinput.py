@@ -40,5 +40,6 @@ class BadInputLog:
         self._logger.log(level, "bad input from %s: %s%s", key, reason, more)
 
     def total(self) -> int:
+        """Bad messages counted so far, over every key."""
         with self._lock:
             return sum(self.counts.values())

@@ -66,6 +66,7 @@ class ControlListener:
             self._on_control(entry)
 
     def close(self) -> None:
+        """Stop listening to control."""
         self._shared.leave(self)
 
 

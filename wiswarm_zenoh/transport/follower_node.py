@@ -24,6 +24,10 @@ class FollowerNode:
     hands its own entry of ``wiswarm/<swarm>/control`` to ``on_control``, and holds the
     liveliness token ``wiswarm/<swarm>/members/<id>`` while it is up.
 
+    ``on_control`` is called on Zenoh's thread with this follower's waypoints, a list of
+    ``(t, x, y, z)`` (``Waypoint``), for every control message that carries an entry for
+    it and that it obeys (the leader repeats its control every 0.1 s).
+
     ``offer`` is thread-safe and may be called at any rate. ``clock`` stamps updates
     and polls (the leader estimates its offset). With ``sample_on_poll`` the node takes
     a fresh sample from it whenever polled (a sensor read at will) before answering.
@@ -69,10 +73,12 @@ class FollowerNode:
 
     @property
     def polls(self) -> int:
+        """Polls answered so far."""
         return self._core.polls
 
     @property
     def offered(self) -> int:
+        """Updates offered so far (taken or dropped by the queue)."""
         return self._core.offered
 
     def _on_query(self, query: zenoh.Query) -> None:

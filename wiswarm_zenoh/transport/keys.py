@@ -41,18 +41,22 @@ class SwarmKeys:
 
     @property
     def prefix(self) -> str:
+        """``wiswarm/<swarm>``."""
         return f"{ROOT}/{self.swarm}"
 
     @property
     def everything(self) -> str:
+        """``wiswarm/<swarm>/**``: every key of the swarm."""
         return f"{self.prefix}/**"
 
     @property
     def control(self) -> str:
+        """``wiswarm/<swarm>/control``: the leader's control information (msgpack)."""
         return f"{self.prefix}/control"
 
     @property
     def members(self) -> str:
+        """``wiswarm/<swarm>/members/*``: every follower's liveliness token."""
         return f"{self.prefix}/members/*"
 
     @property
@@ -61,34 +65,43 @@ class SwarmKeys:
         return f"{self.prefix}/leaders/**"
 
     def leader(self, name: str, started_us: int) -> str:
+        """``wiswarm/<swarm>/leaders/<name>/<start us>``: one leader's liveliness token."""
         return f"{self.prefix}/leaders/{check_name(name, 'leader name')}/{started_us}"
 
     @property
     def leader_stats(self) -> str:
+        """``wiswarm/<swarm>/leader/stats``: the active leader's JSON stats."""
         return f"{self.prefix}/leader/stats"
 
     @property
     def leader_deliveries(self) -> str:
+        """``wiswarm/<swarm>/leader/deliveries``: every delivery and unanswered poll (JSON)."""
         return f"{self.prefix}/leader/deliveries"
 
     @property
     def all_stats(self) -> str:
+        """``wiswarm/<swarm>/*/stats``: every follower's stats (and the leader's)."""
         return f"{self.prefix}/*/stats"
 
     @property
     def all_fresh(self) -> str:
+        """``wiswarm/<swarm>/*/fresh``: every delivered update, of every follower."""
         return f"{self.prefix}/*/fresh"
 
     def member(self, follower: str) -> str:
+        """``wiswarm/<swarm>/members/<follower>``: that follower's liveliness token."""
         return f"{self.prefix}/members/{check_follower(follower)}"
 
     def update(self, follower: str) -> str:
+        """``wiswarm/<swarm>/<follower>/update``: its queryable; a ``get`` here is a poll."""
         return f"{self.prefix}/{check_follower(follower)}/update"
 
     def stats(self, follower: str) -> str:
+        """``wiswarm/<swarm>/<follower>/stats``: its JSON stats, put by the leader."""
         return f"{self.prefix}/{check_follower(follower)}/stats"
 
     def fresh(self, follower: str) -> str:
+        """``wiswarm/<swarm>/<follower>/fresh``: its delivered updates, put by the leader."""
         return f"{self.prefix}/{check_follower(follower)}/fresh"
 
     def follower_of(self, key: str, leaf: str) -> str | None:

@@ -1,18 +1,18 @@
 """Which followers a leader has, from their liveliness tokens, and a link to each.
 
-A token's coming and going is queued on Zenoh's thread and applied on the poll thread
-(``apply``), so the core changes only there. A follower whose token goes is polled no
-more, but its link stays open for ``forget_after`` seconds so that its stats go on, its
-age growing (``present`` false): a site cut off upstream is not reported fresh. Back
-within that time it is taken up where it was; after it, forgotten.
+A token's coming and going is posted on Zenoh's thread, as a command to the poll
+thread's inbox, and applied there, so the core changes only there. A follower whose
+token goes is polled no more, but its link stays open for ``forget_after`` seconds so
+that its stats go on, its age growing (``present`` false): a site cut off upstream is
+not reported fresh. Back within that time it is taken up where it was; after it,
+forgotten.
 """
 
 from __future__ import annotations
 
 import logging
-import threading
-from collections import deque
 from collections.abc import Callable
+from functools import partial
 
 import zenoh
 
@@ -22,34 +22,40 @@ from wiswarm_zenoh.transport.edge import site_of
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.outlets import notify
 
 log = logging.getLogger(__name__)
 
 FORGET_AFTER = 60.0  # seconds a follower that left stays in the stats, its age growing
 
-ReplyHandler = Callable[[FollowerLink, zenoh.Reply], object]
-EndHandler = Callable[[FollowerLink, int], object]  # a poll's get is over (its sequence)
+ReplyHandler = Callable[[FollowerLink, zenoh.Reply], None]
+EndHandler = Callable[[FollowerLink, int], None]  # a poll's get is over (its sequence)
 
 
 class Membership:
     """The followers' links, kept in step with their tokens and with the core."""
 
-    def __init__(self, session: zenoh.Session, keys: SwarmKeys, ceiling: float,
-                 on_reply: ReplyHandler, on_end: EndHandler, wake: Callable[[], object],
-                 bad_input: BadInputLog, forget_after: float = FORGET_AFTER) -> None:
-        self._session, self._keys = session, keys
-        self._ceiling, self._on_reply, self._on_end, self._wake = ceiling, on_reply, on_end, wake
+    def __init__(self, session: zenoh.Session, keys: SwarmKeys, leader: Leader,
+                 clock: Callable[[], float], post: Callable[[Callable[[], object]], object],
+                 on_reply: ReplyHandler, on_end: EndHandler, bad_input: BadInputLog,
+                 forget_after: float = FORGET_AFTER,
+                 on_join: Callable[[str], object] | None = None,
+                 on_leave: Callable[[str], object] | None = None) -> None:
+        self._session, self._keys, self._leader, self._clock = session, keys, leader, clock
+        # Replies and ends come on Zenoh's thread: handled on the poll thread.
+        self._post = post
+        self._on_reply: Callable[[FollowerLink, zenoh.Reply], object] = \
+            lambda link, reply: post(partial(on_reply, link, reply))
+        self._on_end: Callable[[FollowerLink, int], object] = \
+            lambda link, poll_seq: post(partial(on_end, link, poll_seq))
         self._bad_input = bad_input
         self._forget_after = forget_after
         self.links: dict[str, FollowerLink] = {}
-        self._changes: deque[tuple[str, bool]] = deque()  # (follower, joined), as they came
+        self.followers: list[str] = []  # those polled (a copy: read from any thread)
+        self._on_join, self._on_leave = on_join, on_leave
         self._departed_at: dict[str, float] = {}  # followers gone, not forgotten yet
         self._tokens = session.liveliness().declare_subscriber(keys.members, self._on_token,
                                                                history=True)
-
-    @property
-    def changed(self) -> bool:
-        return bool(self._changes)
 
     def _on_token(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
@@ -57,43 +63,39 @@ class Membership:
         if follower is None:
             self._bad_input.report(key, "not a valid member key")
             return
-        self._changes.append((follower, sample.kind == zenoh.SampleKind.PUT))
-        self._wake()
+        self._post(partial(self._change, follower, sample.kind == zenoh.SampleKind.PUT))
 
-    def apply(self, leader: Leader, lock: threading.Lock, now: float) -> list[tuple[str, bool]]:
-        """Take the tokens' changes into ``leader``; the joins and leaves that count
-        (a second leave of a follower already gone does not)."""
-        done = []
-        while self._changes:
-            follower, joined = self._changes.popleft()
-            if joined:
-                with lock:
-                    leader.add_follower(follower, now, link=site_of(follower))
-                self._departed_at.pop(follower, None)
-                if follower not in self.links:
-                    self.links[follower] = FollowerLink.open(
-                        self._session, self._keys, follower, self._ceiling, self._on_reply,
-                        self._on_end)
-                log.info("follower %s joined", follower)
-            elif follower in self.links and follower not in self._departed_at:
-                with lock:
-                    leader.remove_follower(follower, now)
-                self._departed_at[follower] = now  # its link stays: its stats go on
-                log.info("follower %s left (its liveliness token is gone): polled no "
-                            "more; its stats show its age growing for %.0f s", follower,
-                            self._forget_after)
-            else:
-                continue
-            done.append((follower, joined))
-        return done
+    def _change(self, follower: str, joined: bool) -> None:
+        """A token's change, on the poll thread, into the core; the application hears
+        of the joins and leaves that count (a second leave of one gone does not)."""
+        now = self._clock()
+        if joined:
+            self._leader.add_follower(follower, now, link=site_of(follower))
+            self._departed_at.pop(follower, None)
+            if follower not in self.links:
+                self.links[follower] = FollowerLink.open(
+                    self._session, self._keys, follower, self._leader.config.timeout,
+                    self._on_reply, self._on_end)
+            log.info("follower %s joined", follower)
+        elif follower in self.links and follower not in self._departed_at:
+            self._leader.remove_follower(follower, now)
+            self._departed_at[follower] = now  # its link stays: its stats go on
+            log.info("follower %s left (its liveliness token is gone): polled no "
+                     "more; its stats show its age growing for %.0f s", follower,
+                     self._forget_after)
+        else:
+            return
+        self.followers = self._leader.followers  # before the callback: it may call in
+        callback = self._on_join if joined else self._on_leave
+        if callback is not None:
+            notify(callback, follower)
 
-    def forget_departed(self, leader: Leader, lock: threading.Lock, now: float) -> None:
+    def forget_departed(self, now: float) -> None:
         """Followers gone for ``forget_after`` are forgotten, their links closed."""
         for follower, left_at in list(self._departed_at.items()):
             if now - left_at >= self._forget_after:
                 del self._departed_at[follower]
-                with lock:
-                    leader.forget_follower(follower)
+                self._leader.forget_follower(follower)
                 self.links.pop(follower).close()
                 log.info("follower %s forgotten (gone for %.0f s)", follower, now - left_at)
 

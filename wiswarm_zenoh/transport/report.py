@@ -50,6 +50,7 @@ class LiveTable:
         self._last_plain = 0.0
 
     def show(self, lines: Sequence[str]) -> None:
+        """Draw ``lines`` in place of the block drawn before."""
         if self._tty:
             up = f"\x1b[{self._drawn}F" if self._drawn else ""
             body = "".join(f"\x1b[2K{line}\n" for line in lines)

@@ -32,7 +32,7 @@ from wiswarm_zenoh.transport.frames import (
     SyntheticFrames,
     capture_time,
 )
-from wiswarm_zenoh.transport.leader_node import CONTROL_PERIOD, LeaderNode
+from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
@@ -40,20 +40,27 @@ from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 log = logging.getLogger(__name__)
 
 SUPERVISION_PERIOD = 0.25  # seconds between checks of the deadline and the parent
+"""Seconds between a node's checks of its deadline and of its parent process."""
 
 
 class StopSignal(Protocol):
     """``threading.Event`` or ``multiprocessing.Event``."""
 
-    def is_set(self) -> bool: ...
-    def set(self) -> None: ...
-    def wait(self, timeout: float | None = None) -> bool: ...
+    def is_set(self) -> bool:
+        """Whether a stop was asked for."""
+
+    def set(self) -> None:
+        """Ask for a stop."""
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait up to ``timeout`` seconds for a stop; whether it was asked for."""
 
 
 class ReadySignal(Protocol):
     """Set once the session is open and the node declared (an Event, or a message)."""
 
-    def set(self) -> None: ...
+    def set(self) -> None:
+        """Say the node is ready."""
 
 
 def wait_until_stopped(stop: StopSignal, duration: float | None = None,
@@ -231,7 +238,6 @@ class LeaderOptions:
     swarm: str
     config: LeaderConfig = field(default_factory=LeaderConfig)
     duration: float | None = None
-    control_period: float = CONTROL_PERIOD
     record: str | None = None  # CSV file of every delivery
     record_capture_stamps: bool = False  # ground-truth generation times (DeliveryRecord)
     stats_file: str | None = None  # JSON of the last stats (leader, followers), at exit
@@ -265,7 +271,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                control_period=options.control_period, name=options.name,
+                name=options.name,
                 bridge=options.bridge)
             if upstream is not None:
                 upstream.set_control = node.set_control

@@ -4,17 +4,20 @@ once while polling waits), and the summary on ``leader/stats`` once a round is d
 
 from __future__ import annotations
 
-import threading
 from collections import deque
 from collections.abc import Mapping
 
 import zenoh
 
 from wiswarm_zenoh.core import FollowerStats, Leader
+from wiswarm_zenoh.transport.bridge import LeaderBridge
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.outlets import notify
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, follower_stats, to_json
+
+STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 
 
 class StatsRounds:
@@ -45,23 +48,33 @@ class StatsRounds:
         self.due = now + self._period
         self._owed.clear()
 
-    def publish(self, now: float, leader: Leader, lock: threading.Lock,
-                links: Mapping[str, FollowerLink]) -> None:
+    def tick(self, now: float, leader: Leader, links: Mapping[str, FollowerLink],
+             active: bool | None, bridge: LeaderBridge | None) -> None:
+        """What is due by ``now``: nothing from a standby (the active leader's stats are
+        the swarm's); the records due, and at a round's end the summary, handed to
+        ``bridge`` too."""
+        if not active:
+            self.pause(now)
+            return
+        latest = self.latest
+        self.publish(now, leader, links)
+        if bridge is not None and self.latest is not latest:  # a round is done
+            notify(lambda records: bridge.stats(records, now), self.latest)
+
+    def publish(self, now: float, leader: Leader, links: Mapping[str, FollowerLink]) -> None:
         """Publish the records due by ``now`` (and the summary if the round is done)."""
         if not self._owed:
-            with lock:
-                self._owed = deque(leader.followers + leader.departed)
+            self._owed = deque(leader.followers + leader.departed)
             self._round_start, self._round_size, self._records = now, len(self._owed), []
         start, size = self._round_start, self._round_size
         owed_now = min(size, int(size * (now - start) / self._period) + 1)
         batch = []
-        with lock:
-            while self._owed and size - len(self._owed) < owed_now:
-                follower = self._owed.popleft()
-                link = links.get(follower)
-                if link is not None:  # not gone since the round began
-                    batch.append(follower_stats(leader.stats(follower, now), link.errors))
-            polls, epoch, in_flight = leader.polls, leader.epoch, leader.in_flight_limit
+        while self._owed and size - len(self._owed) < owed_now:
+            follower = self._owed.popleft()
+            link = links.get(follower)
+            if link is not None:  # not gone since the round began
+                batch.append(follower_stats(leader.stats(follower, now), link.errors))
+        polls, epoch, in_flight = leader.polls, leader.epoch, leader.in_flight_limit
         for record in batch:
             links[record.follower].stats.put(to_json(record.as_dict()))
         self._records += batch

@@ -30,9 +30,11 @@ class Ticker:
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
 
     def start(self) -> None:
+        """Start calling the action in a thread of its own."""
         self._thread.start()
 
     def stop(self) -> None:
+        """Stop calling it and wait for the thread."""
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join()

@@ -1,7 +1,7 @@
-"""The work a reply brings waits: the next poll goes out first, to the follower the
-usual path would have picked (the pick made while the reply was on its way), the
-scheduler sees a fresh update at once, and the checksum and the delivery come with
-``next_event``. Nothing is lost between."""
+"""A reply's work is all done when it comes in; the next poll goes out before its
+events are handed on, to the follower the usual path would pick: with one poll out, the
+pick made while the reply was on its way (by the ``next_poll`` that found no room),
+weighed against the polled follower's new index only. Nothing is lost between."""
 
 from __future__ import annotations
 
@@ -59,9 +59,11 @@ def _usual(leader: Leader, request: PollRequest, raw: bytes,
 
 def _fast(leader: Leader, request: PollRequest, raw: bytes,
           now: float) -> tuple[PollRequest, list[Event]]:
-    """As a shell: the next poll first, then the events (and the pick for after it)."""
+    """As a shell: the next polls until none (the last call makes the pick for after
+    the one out), then the events."""
     leader.receive_reply(request.follower, raw, now)
     following = poll(leader, now)
+    assert leader.next_poll(now) is None
     return following, drain(leader)
 
 
@@ -80,7 +82,7 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
         for i, weight in enumerate(weights[:n]):
             leader.observe_urgency(f"uav{i}", weight)
     usual_request, fast_request = poll(usual, 0.0), poll(fast, 0.0)
-    drain(fast)  # the pick for after the first poll
+    assert fast.next_poll(0.0) is None  # the pick for after the first poll
     usual_events: list[Event] = []
     fast_events: list[Event] = []
     for step, (who, made_before) in enumerate(offers):
@@ -120,16 +122,17 @@ def test_the_fast_path_picks_what_the_usual_path_picks_among_many() -> None:
 
 
 def _picked_exchange(n: int = 3) -> tuple[Leader, dict[str, Follower], PollRequest, bytes]:
-    """A poll out, its events drained (so the pick for after it is made), its answer."""
+    """A poll out, the pick for after it made, its answer."""
     leader, followers = _swarm(n)
     for follower in followers.values():
         follower.offer(FRAME, 0.005)
     request = poll(leader, 0.01)
+    assert leader.next_poll(0.01) is None
     assert drain(leader) == []
     return leader, followers, request, _answer(followers, request)
 
 
-def test_a_reply_whose_work_waited_is_delivered_after_the_next_poll_and_counted() -> None:
+def test_a_reply_is_delivered_after_the_next_poll_and_counted() -> None:
     leader, _, request, raw = _picked_exchange()
     assert request.follower == "uav0"  # all equally old: the first joined
     leader.receive_reply("uav0", raw, 0.012)
@@ -142,15 +145,15 @@ def test_a_reply_whose_work_waited_is_delivered_after_the_next_poll_and_counted(
     assert drain(leader) == []
 
 
-def test_a_checksum_failure_found_after_the_next_poll_is_rejected() -> None:
+def test_a_checksum_failure_leaves_the_follower_as_old_and_the_pick_untaken() -> None:
     leader, _, request, raw = _picked_exchange()
     reply = decode_reply(raw)
     assert reply.fragment is not None
     damaged = dataclasses.replace(reply.fragment, data=b"X" * len(reply.fragment.data))
     leader.receive_reply(request.follower,
                          encode_reply(dataclasses.replace(reply, fragment=damaged)), 0.012)
-    poll(leader, 0.012)
-    assert leader.fast_polls == 1
+    assert poll(leader, 0.012).follower == request.follower  # still the oldest
+    assert leader.fast_polls == 0
     events = drain(leader)
     assert len(events) == 1 and isinstance(events[0], Rejected)
     assert leader.stats(request.follower, 0.012).deliveries == 0
@@ -183,7 +186,7 @@ def test_no_pick_is_taken_for_a_late_reply() -> None:
 def test_no_pick_is_made_for_a_policy_without_an_index() -> None:
     leader, followers = _swarm(3, LeaderConfig(policy="round-robin"))
     request = poll(leader, 0.01)
-    drain(leader)
+    assert leader.next_poll(0.01) is None
     _declines(leader, request, _answer(followers, request))
 
 
@@ -205,7 +208,7 @@ def test_no_pick_is_taken_for_a_fragment_of_a_larger_update() -> None:
     leader, followers = _swarm(3)
     followers["uav0"].offer(bytes(10_000), 0.0)  # three fragments of 4096 bytes
     request = poll(leader, 0.01)
-    drain(leader)
+    assert leader.next_poll(0.01) is None
     _declines(leader, request, _answer(followers, request))
 
 
@@ -214,7 +217,7 @@ def test_a_follower_whose_answer_leaves_it_oldest_keeps_its_turn() -> None:
     leader.observe_urgency("uav0", 10.0)  # the heavier: polled first
     request = poll(leader, 10.0)
     assert request.follower == "uav0"
-    drain(leader)
+    assert leader.next_poll(10.0) is None
     # Its update is older than anything the leader has seen (a backlog): still first.
     old = FragmentData(1, -100.0, 0, 1, len(FRAME), 0, FRAME)
     raw = encode_reply(Reply(request.follower, request.poll_seq, 10.001, 10.001, old))
@@ -222,7 +225,7 @@ def test_a_follower_whose_answer_leaves_it_oldest_keeps_its_turn() -> None:
     assert poll(leader, 10.002).follower == "uav0" and leader.fast_polls == 0
 
 
-# --- the reply's work, waiting: the two-step reply as the scheduler sees it ---
+# --- the reply's work and its events: the next poll between them ---
 
 
 def _two(made: tuple[float, float] = (0.5, 0.25)) -> tuple[Leader, dict[str, Follower]]:
@@ -238,7 +241,7 @@ def _reply(followers: dict[str, Follower], request: PollRequest, at: float) -> b
     return followers[request.follower].on_poll(request.payload, at, at)
 
 
-def test_an_update_whose_work_waits_counts_for_the_next_choice() -> None:
+def test_an_update_taken_counts_for_the_next_choice() -> None:
     leader, followers = _two()
     first = poll(leader, 1.0)
     leader.receive_reply(first.follower, _reply(followers, first, 1.001), 1.002)
@@ -252,7 +255,7 @@ def test_an_update_whose_work_waits_counts_for_the_next_choice() -> None:
     assert leader.stats(first.follower, 1.002).deliveries == 1
 
 
-def test_a_checksum_failure_withdraws_the_freshness_and_asks_afresh() -> None:
+def test_a_checksum_failure_counts_no_freshness_and_asks_afresh() -> None:
     leader, followers = _two()
     first = poll(leader, 1.0)
     fid = first.follower
@@ -261,15 +264,12 @@ def test_a_checksum_failure_withdraws_the_freshness_and_asks_afresh() -> None:
     assert reply.fragment is not None
     damaged = dataclasses.replace(reply.fragment, data=b"X" * len(reply.fragment.data))
     leader.receive_reply(fid, encode_reply(dataclasses.replace(reply, fragment=damaged)), 1.002)
-    other = poll(leader, 1.002)
-    assert other.follower != fid
     events = drain(leader)
     assert len(events) == 1 and isinstance(events[0], Rejected)
     assert "checksum" in events[0].reason
     assert leader.stats(fid, 1.002).errors == 1
-    on_reply(leader, other.follower, _reply(followers, other, 1.003), 1.004)
-    again = poll(leader, 1.004)
-    assert again.follower == fid  # aged from 0 again, not from its rejected frame at 0.5
+    again = poll(leader, 1.002)
+    assert again.follower == fid  # aged from 0 as before, not from its rejected frame
     assert poll_message(again).want == "fresh"
 
 
@@ -295,16 +295,16 @@ def test_a_timeout_counts_after_the_answer_before_it() -> None:
         (Silent, second.follower)]  # it never answered: silent from its first miss
 
 
-def test_a_follower_removed_before_its_work_is_done_is_forgotten_with_its_reply() -> None:
+def test_a_follower_removed_after_its_answer_keeps_what_it_delivered() -> None:
     leader, followers = _two()
     first = poll(leader, 1.0)
     leader.receive_reply(first.follower, _reply(followers, first, 1.001), 1.002)
     leader.remove_follower(first.follower)
-    assert drain(leader) == []
+    assert [type(e) for e in drain(leader)] == [Delivered]  # it came while a member
     assert leader.followers == [fid for fid in followers if fid != first.follower]
 
 
-def test_a_follower_restarting_before_its_update_is_settled_changes_nothing_of_it() -> None:
+def test_a_follower_restarting_before_its_events_are_taken_changes_nothing_of_them() -> None:
     """The update's time-stamp is put on the leader's clock with the clock estimate of
     the process that sent it, not of the one that replaced it."""
     leader = Leader()
