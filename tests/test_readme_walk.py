@@ -185,9 +185,11 @@ def test_no_router_where_the_leader_is_pointed_is_named_in_one_line(tmp_path: Pa
     assert leader.finish() == 1  # and at its end, that none ever was
 
 
-def test_a_follower_that_never_reached_a_router_says_so_and_fails(tmp_path: Path) -> None:
+@pytest.mark.parametrize("system", ["wiswarm", "push"])
+def test_a_follower_that_never_reached_a_router_says_so_and_fails(system: str) -> None:
     port = free_tcp_port()  # nothing listens there
-    follower = Node(["follower", "--id", "uav1", *_endpoint(port), "--duration", "1.5"])
+    follower = Node(["follower", "--id", "uav1", "--system", system, *_endpoint(port),
+                     "--duration", "1.5"])
     assert follower.finish() == 1, follower.lines[-5:]
     said = [line for line in follower.lines if "no router was ever reached" in line]
     assert len(said) == 1 and f"tcp/127.0.0.1:{port}" in said[0], follower.lines[-5:]

@@ -87,3 +87,22 @@ class RouterWatch:
                   "tls/HOST:PORT and this node's config from wiswarm security", self._node,
                   ", ".join(self._endpoints), time.monotonic() - self._started)
         return False
+
+
+class RouterWatches:
+    """The watches of several sessions in one process (followers sharing a host), as one."""
+
+    def __init__(self, endpoints: Sequence[str]) -> None:
+        self._endpoints = list(endpoints)
+        self._watches: list[RouterWatch] = []
+
+    def add(self, session: zenoh.Session, node: str) -> None:
+        self._watches.append(RouterWatch(session, node, self._endpoints))
+
+    def check(self) -> None:
+        for watch in self._watches:
+            watch.check()
+
+    def finish(self) -> bool:
+        """``RouterWatch.finish`` of each (each says its own); False if any failed."""
+        return all([watch.finish() for watch in self._watches])

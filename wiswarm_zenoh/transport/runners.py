@@ -33,7 +33,7 @@ from wiswarm_zenoh.transport.frames import (
     capture_time,
 )
 from wiswarm_zenoh.transport.leader_node import LeaderNode
-from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch
+from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 
@@ -170,13 +170,12 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     a UAV of its own): spares the CPU of a process per follower in experiments. Stops at
     the first follower's ``duration``; ``NoRouterReached`` at the end if one of them
     never reached the router it was pointed at."""
-    endpoints = spec.routers()
+    watches = RouterWatches(spec.routers())
     with contextlib.ExitStack() as stack:
-        feeds, watches = [], []
+        feeds = []
         for option in options:
             session = stack.enter_context(spec.open())
-            watches.append(RouterWatch(session, f"follower {option.follower_id}",
-                                       endpoints))
+            watches.add(session, f"follower {option.follower_id}")
             node = stack.enter_context(
                 FollowerNode(session, option.swarm, option.follower_id, option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
@@ -187,12 +186,8 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         if ready is not None:
             ready.set()
 
-        def check_routers() -> None:
-            for watch in watches:
-                watch.check()
-
-        wait_until_stopped(stop, options[0].duration if options else None, check_routers)
-        reached = all([watch.finish() for watch in watches])  # each says its own
+        wait_until_stopped(stop, options[0].duration if options else None, watches.check)
+        reached = watches.finish()
         for option, node, frames in feeds:
             log.info("follower %s: %d frames offered, %d polls answered",
                      option.follower_id, frames.frames, node.polls)
