@@ -91,7 +91,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._stats = StatsRounds(session, self.keys, stats_period, clock(), self.config.policy,
                                   self.name, every_record or bridge is not None)
         self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
-                                on_delivery, clock)
+                                on_delivery, clock, lambda f: not self._stop.is_set() and
+                                f in self._membership.followers)
         self.bridge = self._outlets.bridge = \
             None if bridge is None else bridge.open(session, swarm, self)
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
