@@ -1,10 +1,9 @@
 """The leader on Zenoh: the core's thin shell (aioquic's asyncio adapter is the model).
 
 One thread owns the core: it feeds it what comes through one inbox (replies and ends
-of gets from Zenoh's thread, membership changes, the application's calls: so no lock
-is shared with any caller) and the timer, and sends its polls and events on
-(``outlets``). A get stays open to the ceiling (``--timeout``): a reply after the
-adaptive deadline still teaches the core.
+of gets from Zenoh's thread, membership changes, the application's calls: no lock is
+shared with any caller) and the timer, and sends its polls and events on (``outlets``).
+A get stays open to the ceiling: a reply after the adaptive deadline still teaches.
 """
 
 from __future__ import annotations
