@@ -184,7 +184,8 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
         if len(joined) == n:
             everyone.set()
 
-    with LeaderNode(session, SWARM, config, on_join=on_join, **node) as leader:
+    with LeaderNode(session, SWARM, config, on_join=on_join, every_record=True,
+                    **node) as leader:
         if not everyone.wait(READY_TIMEOUT):
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
         while leader.polls < WARM_UP_ROUNDS * n:

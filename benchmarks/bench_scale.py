@@ -252,24 +252,25 @@ def timeouts(node: LeaderNode) -> int:
 
 
 def bare_rate(spec: SessionSpec, followers: list[str], seconds: float,
-              timeout: float) -> tuple[float, float]:
+              timeout: float) -> tuple[float, float, float]:
     """Polls/s of a round-robin get loop with nothing but Zenoh in it (after two rounds
-    of warm-up), and the CPU time of its thread per poll."""
+    of warm-up), and the CPU time of its thread and of this process per poll."""
     with spec.open() as session:
         wait_for_routes(session, followers, timeout)
         queriers = [session.declare_querier(
             f"wiswarm/{BARE}/{f}/update", target=zenoh.QueryTarget.ALL,
             consolidation=zenoh.ConsolidationMode.NONE, timeout=timeout) for f in followers]
         poll = encode_poll(Poll(1, time.time(), None))
-        polls, start, end, cpu = -2 * len(queriers), 0.0, float("inf"), 0.0
+        polls, start, end, cpu, process = -2 * len(queriers), 0.0, float("inf"), 0.0, 0.0
         while time.perf_counter() < end:
             if polls == 0:
-                start, cpu = time.perf_counter(), time.thread_time()
+                start, cpu, process = time.perf_counter(), time.thread_time(), time.process_time()
                 end = start + seconds
             for _ in queriers[polls % len(queriers)].get(payload=poll):
                 pass
             polls += 1
-        return polls / (time.perf_counter() - start), (time.thread_time() - cpu) / polls
+        return (polls / (time.perf_counter() - start), (time.thread_time() - cpu) / polls,
+                (time.process_time() - process) / polls)
 
 
 def measure(n: int, args: argparse.Namespace) -> None:
@@ -301,7 +302,7 @@ def measure(n: int, args: argparse.Namespace) -> None:
 
 def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: float,
            rss_joined: int, rss_end: int, window: Window,
-           bare: tuple[float, float] | None) -> None:
+           bare: tuple[float, float, float] | None) -> None:
     rate = window.polls / window.seconds
     s = 1.0 / rate
     floor = s * (n / 2 + 1)
@@ -337,7 +338,8 @@ def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: f
           f"per follower")
     print(f"  leader CPU (process, all threads)    {window.cpu / window.seconds:6.1%} of a core "
           f"= {window.cpu / window.seconds / n * 1e6:7.1f} us/s per follower, "
-          f"{window.cpu / window.polls * 1e6:6.1f} us per poll")
+          f"{window.cpu / window.polls * 1e6:6.1f} us per poll"
+          + ("" if bare is None else f" (bare get loop: {bare[2] * 1e6:.1f})"))
     print(f"  poll thread alone                    {window.poll_thread_cpu / window.seconds:6.1%}"
           f" of a core = {window.poll_thread_cpu / window.seconds / n * 1e6:7.1f} us/s per "
           f"follower, {window.poll_thread_cpu / window.polls * 1e6:6.1f} us per poll"

@@ -1,15 +1,18 @@
 """The walk a newcomer takes through the README and the guides it links to
-(docs/getting-started.md, docs/guides/swarm.md, security.md, dashboard.md), each command
+(docs/getting-started.md, docs/guides/swarm.md, security.md, dashboard.md,
+standby-edge-cloud.md, testbed.md), each command
 a process of its own started as the pages say: the parts that fit in CI time. A run
 with no fault must show no traceback, no WARNING or ERROR line (ours or Zenoh's) and at
 most 10 log lines per process per minute; each misstep a newcomer makes must be named
 in its one line.
 
 Covered: a swarm by hand (router, leader, two followers), a secured swarm (``wiswarm
-security init``) with an observer's dashboard, a short demo on loopback, and the
-missteps: no router where the leader is pointed, a plain endpoint at a TLS router, a
-dashboard port in use. (The demo's comparison over the shared link, the testbed study
-and the two-site walkthrough have tests of their own.)"""
+security init``) with an observer's dashboard, a short demo on loopback, two sites and a
+cloud step by step (three routers, a cloud and two edge leaders, a follower a site), a
+short testbed study where root is there; and the missteps: no router where the leader or
+a follower is pointed (said after 3 s, and at the end, exit code 1), a plain endpoint at
+a TLS router, a dashboard port in use. (The demo's comparison over the shared link has
+tests of its own.)"""
 
 from __future__ import annotations
 
@@ -21,6 +24,9 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
+import pytest
+
+from wiswarm_zenoh.testbed import TestbedUnavailable, check_available
 from wiswarm_zenoh.testbed.faults import Process
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
@@ -65,6 +71,10 @@ def nodes() -> Iterator[list[Node]]:
     finally:
         for node in reversed(started):
             node.stop()
+
+
+def _listen(port: int) -> list[str]:
+    return ["-l", f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"]
 
 
 def _endpoint(port: int) -> list[str]:
@@ -123,12 +133,67 @@ def test_a_short_demo_on_loopback_runs_quietly(tmp_path: Path) -> None:
     demo.quiet()
 
 
+def test_a_short_testbed_study_runs_quietly(tmp_path: Path) -> None:
+    """The README's study, at its smallest: N = 2, every system, one best-rate point."""
+    try:
+        check_available()
+    except TestbedUnavailable as exc:
+        pytest.skip(f"testbed unavailable: {exc}")
+    study = Node(["experiment", "testbed", "--ns", "2", "--rates", "25", "--duration", "2",
+                  "--warmup", "1", "--out", str(tmp_path / "study")])
+    assert study.finish(240.0) == 0, study.lines[-8:]
+    study.quiet()
+    gains = (tmp_path / "study" / "gains.md").read_text()
+    assert "- nothing: every process ran to the end and stopped cleanly" in gains, gains
+
+
+def test_two_sites_and_a_cloud_step_by_step_run_quietly(tmp_path: Path) -> None:
+    cloud, site1, site2 = (free_tcp_port() for _ in range(3))
+    with nodes() as started:
+        # routers until stopped, after the others
+        routers = [Node(["router", *_listen(cloud)])]
+        routers[0].wait_for("listening")
+        routers += [Node(["router", *_listen(site), "-e", f"tcp/127.0.0.1:{cloud}"])
+                    for site in (site1, site2)]
+        started += routers
+        for router in routers[1:]:
+            router.wait_for("listening")
+        run = ["--duration", str(RUN)]
+        leaders = [Node(["leader", "--swarm", "cloud", "--in-flight", "6", *_endpoint(cloud),
+                         *run])]
+        leaders += [Node(["leader", "--swarm", f"site{i}", "--upstream", "cloud", "--site",
+                          f"s{i}", *_endpoint(port), *run])
+                    for i, port in ((1, site1), (2, site2))]
+        followers = [Node(["follower", "--swarm", f"site{i}", "--id", "uav1",
+                           *_endpoint(port), *run]) for i, port in ((1, site1), (2, site2))]
+        started += [*leaders, *followers]
+        for node in (*leaders, *followers):
+            assert node.finish() == 0, node.lines[-5:]
+        summary = "\n".join(leaders[0].lines)
+        assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
+        for router in reversed(routers):
+            router.stop()
+    for node in started:
+        node.quiet()
+
+
 def test_no_router_where_the_leader_is_pointed_is_named_in_one_line(tmp_path: Path) -> None:
     port = free_tcp_port()  # nothing listens there
     leader = Node(["leader", *_endpoint(port), "--duration", "5"])
     line = leader.wait_for("no router reached")
     assert f"tcp/127.0.0.1:{port}" in line and "wiswarm router" in line
-    leader.finish()
+    assert leader.finish() == 1  # and at its end, that none ever was
+
+
+@pytest.mark.parametrize("system", ["wiswarm", "push"])
+def test_a_follower_that_never_reached_a_router_says_so_and_fails(system: str) -> None:
+    port = free_tcp_port()  # nothing listens there
+    follower = Node(["follower", "--id", "uav1", "--system", system, *_endpoint(port),
+                     "--duration", "1.5"])
+    assert follower.finish() == 1, follower.lines[-5:]
+    said = [line for line in follower.lines if "no router was ever reached" in line]
+    assert len(said) == 1 and f"tcp/127.0.0.1:{port}" in said[0], follower.lines[-5:]
+    assert not any("Traceback" in line for line in follower.lines)
 
 
 def test_a_plain_endpoint_at_a_tls_router_is_named_on_both_sides(tmp_path: Path) -> None:

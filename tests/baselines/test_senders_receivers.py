@@ -6,6 +6,7 @@ sender, never crashes the receiver, never lowers AoI."""
 from __future__ import annotations
 
 import csv
+import logging
 import multiprocessing
 import socket
 import threading
@@ -123,6 +124,9 @@ def test_two_followers_deliver_stamped_frames_measured_and_published(
         watcher.wait("stats of both", lambda s: all(
             s.stats(f"wiswarm/s1/{name}/stats") and
             s.stats(f"wiswarm/s1/{name}/stats")[-1]["deliveries"] == 5 for name in "ab"))
+        # The leader's are put after the followers' and may still be on their way.
+        watcher.wait("the leader's stats of both", lambda s: any(
+            r["followers"] == ["a", "b"] for r in s.stats("wiswarm/s1/leader/stats")))
         for sender in senders:
             sender.close()
     record.close()
@@ -204,6 +208,7 @@ def test_a_full_fifo_drops_the_new_frame_and_keeps_the_sequence_of_frames_sent()
 def test_close_drops_the_queue_and_does_not_wait_for_a_blocked_send(
         monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
     monkeypatch.setattr(fifo_module, "CLOSE_WAIT", 0.05)
+    caplog.set_level(logging.INFO, logger="wiswarm_zenoh")  # a stop's normal course
     sending, released = threading.Event(), threading.Event()
     sent: list[int] = []
 

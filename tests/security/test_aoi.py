@@ -37,7 +37,7 @@ def _mean_aoi(specs: Callable[[str], SessionSpec]) -> float:
             frames.start()
             stack.callback(frames.stop)
         leader = stack.enter_context(LeaderNode(
-            stack.enter_context(specs("leader").open()), SWARM,
+            stack.enter_context(specs("leader").open()), SWARM, every_record=True,
             on_join=lambda follower: joined.release()))
         for _ in FOLLOWERS:
             assert joined.acquire(timeout=WAIT), "a follower never joined"

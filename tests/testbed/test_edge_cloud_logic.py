@@ -3,7 +3,9 @@ root needed): the numbers it judges the hierarchy by, and what it writes."""
 
 from __future__ import annotations
 
+import contextlib
 import math
+import multiprocessing
 from pathlib import Path
 
 import pytest
@@ -14,10 +16,13 @@ from wiswarm_zenoh.testbed.edge_cloud_report import Floor, floor_of, report, wri
 from wiswarm_zenoh.testbed.edge_cloud_run import (
     EdgeCloudConfig,
     EdgeCloudResults,
+    Layers,
     Setup,
     SetupResult,
 )
 from wiswarm_zenoh.testbed.edge_cloud_topology import WanSpec
+from wiswarm_zenoh.transport.demo import Children
+from wiswarm_zenoh.transport.runners import ReadySignal, StopSignal
 
 PAIRS = [f"s{s}.uav{i}" for i in range(6) for s in (1, 2)]
 
@@ -113,3 +118,40 @@ def test_an_interrupted_run_reports_what_it_has(tmp_path: Path) -> None:
     assert "**Interrupted**" in text and "the edges-alone run is missing" in text
     assert "- not measured" in text
     assert len((tmp_path / "pairs.csv").read_text().splitlines()) == 1 + len(PAIRS)
+
+
+def test_a_setup_with_a_failed_process_says_so_first_and_in_its_events() -> None:
+    failed = _result(Setup("hierarchy", 6), 0.190, 0.090)
+    failed.events = ["t=3.0s, stopping: edge-s1 process failed: exit code 1"]
+    failed.failed = 1
+    results = _results()
+    results.results[2] = failed
+    text = report(results)
+    assert text.split("\n\n")[1].startswith("**1 process failure(s)**")
+    assert "- hierarchy x6: t=3.0s, stopping: edge-s1 process failed: exit code 1" in text
+    clean = report(_results())
+    assert "failure" not in clean
+    assert "- nothing: every process ran to the end and stopped cleanly" in clean
+
+
+def _stops_cleanly(stop: StopSignal, ready: ReadySignal) -> None:
+    ready.set()
+    stop.wait()
+
+
+def _fails_at_its_end(stop: StopSignal, ready: ReadySignal) -> None:
+    ready.set()
+    stop.wait()
+    raise SystemExit(3)
+
+
+def test_the_setups_children_that_did_not_stop_cleanly_are_named_the_links_are_not() -> None:
+    ctx = multiprocessing.get_context("spawn")
+    with Children(ctx) as links:
+        links.start("router", _stops_cleanly)
+        with contextlib.ExitStack() as stack:
+            layers = Layers(stack, links, ["router"])
+            layers.start(0, "followers", _stops_cleanly)
+            layers.start(1, "edge", _fails_at_its_end)
+            layers.wait_ready()
+        assert layers.stopped_badly() == ["edge process failed: exit code 3"]

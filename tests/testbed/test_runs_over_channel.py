@@ -93,7 +93,9 @@ def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
         killer.join()
         timer.join()
     events = " ".join(outcome.events)
-    assert "followers process was killed by signal 9; started again" in events
+    assert "followers process failed: it ended during the run (killed by signal 9); " \
+        "started again" in events
+    assert outcome.failed == 1
     assert "20mbit/20mbit -> 5mbit/5mbit" in events
     assert all(f.deliveries >= 5 for f in outcome.result.followers)  # the run went on
 
@@ -140,7 +142,8 @@ def test_a_process_that_ends_with_an_error_when_stopped_is_reported(
         outcome = measure(channel, RunSpec("push-block", 2, duration=1.0, warmup=0.5),
                           tmp_path)
     assert [e.split(": ", 1)[1] for e in outcome.events] == [
-        "followers process ended with exit code 1"]
+        "followers process failed: exit code 1"]
+    assert outcome.failed == 1
 
 
 def _wait_for_rows(path: Path, rows: int, timeout: float = 60.0) -> None:

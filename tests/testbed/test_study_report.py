@@ -12,7 +12,7 @@ from wiswarm_zenoh.experiments.sweep import METRICS, Point
 from wiswarm_zenoh.experiments.sweep_report import figure_against_n
 from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
-from wiswarm_zenoh.testbed.run import RunOutcome
+from wiswarm_zenoh.testbed.run import RunOutcome, ending
 from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 
 SYSTEMS = ("push-block", "push-drop", "udp", "tcp")
@@ -60,18 +60,19 @@ def test_every_line_of_the_figure_has_a_legend_entry() -> None:
 def _outcome(system: str, events: list[str]) -> RunOutcome:
     metrics = FollowerMetrics("uav0", 0.05, 0.08, 0.1, 100, 50.0, 20.0)
     return RunOutcome(WifiResult(system, 2, 50.0 if system != "wiswarm" else None, 50_176,
-                                 1.0, 0, [metrics]), events)
+                                 1.0, 0, [metrics]), events, failed=len(events))
 
 
-def test_the_report_and_runs_csv_say_which_process_ended_with_an_error(tmp_path: Path
+def test_the_report_and_runs_csv_say_which_process_failed(tmp_path: Path
                                                                          ) -> None:
     config = StudyConfig(ns=(2,), baselines=("push-block",), duration=1.0, warmup=0.5)
-    failed = "t=2.1s, stopping: followers process ended with exit code 1"
+    failed = f"t=2.1s, stopping: {ending('followers', 1)}"
     results = StudyResults([_outcome("wiswarm", []), _outcome("push-block", [failed])])
     files = write_study(tmp_path / "failed", config, results)
     report = files[-1].read_text()
     assert f"- push-block@50 N=2: {failed}" in report
     assert "nothing" not in report.split("What happened during the runs")[1]
+    assert "**1 process failure(s)**" in report.split("## ")[0]  # before any figure
     with files[0].open(newline="") as src:
         events = {row["system"]: row["events"] for row in csv.DictReader(src)}
     assert events == {"wiswarm": "", "push-block": failed}
@@ -79,3 +80,11 @@ def test_the_report_and_runs_csv_say_which_process_ended_with_an_error(tmp_path:
     clean = StudyResults([_outcome("wiswarm", []), _outcome("push-block", [])])
     report = write_study(tmp_path / "clean", config, clean)[-1].read_text()
     assert "- nothing: every process ran to the end and stopped cleanly" in report
+    assert "failure" not in report
+
+
+def test_a_process_that_ended_early_or_not_cleanly_is_named_as_failed() -> None:
+    assert ending("leader", 1) == "leader process failed: exit code 1"
+    assert ending("leader", -9) == "leader process failed: killed by signal 9"
+    assert ending("leader", 0, early=True) == \
+        "leader process failed: it ended during the run (exit code 0)"

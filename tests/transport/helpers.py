@@ -83,13 +83,26 @@ class Samples:
 
     def __init__(self, session: zenoh.Session, key_expr: str) -> None:
         self.samples: list[zenoh.Sample] = []
+        self.arrivals: list[float] = []  # time.monotonic() as each sample came
         self.cond = threading.Condition()
         self._subscriber = session.declare_subscriber(key_expr, self._on_sample)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         with self.cond:
             self.samples.append(sample)
+            self.arrivals.append(time.monotonic())
             self.cond.notify_all()
+
+    def rate(self, key: str) -> tuple[float, int]:
+        """Samples of ``key`` per second from its first to its last, and how many of
+        them were copies of another (the same payload twice: a second path)."""
+        with self.cond:
+            mine = [(t, s.payload.to_bytes()) for t, s in zip(self.arrivals, self.samples,
+                                                                strict=True)
+                    if str(s.key_expr) == key]
+        span = mine[-1][0] - mine[0][0] if len(mine) > 1 else 0.0
+        return ((len(mine) - 1) / span if span > 0 else 0.0,
+                len(mine) - len({payload for _, payload in mine}))
 
     def stats(self, key: str) -> list[dict[str, Any]]:
         with self.cond:

@@ -132,10 +132,12 @@ def test_ctrl_c_stops_the_demo_and_every_child(tmp_path: Path) -> None:
 
 def test_sigterm_stops_a_node_as_ctrl_c_does() -> None:
     """A service manager stops a node with SIGTERM: it ends as after Ctrl-C (its summary
-    printed, exit 0), not killed by the signal (-15) with its summary lost."""
+    printed, exit 0), not killed by the signal (-15) with its summary lost. (With its
+    router: one that never reached any exits 1, saying so.)"""
     port = free_tcp_port()
+    router = SessionSpec.loopback("router", port).open()
     leader = subprocess.Popen(
-        [sys.executable, "-c", ENTRY, "leader", "--swarm", "term", "-l",
+        [sys.executable, "-c", ENTRY, "leader", "--swarm", "term", "-e",
          f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
@@ -147,6 +149,7 @@ def test_sigterm_stops_a_node_as_ctrl_c_does() -> None:
         rest = leader.communicate(timeout=WAIT)[0]
     finally:
         leader.kill()
+        router.close()
     assert leader.returncode == 0, rest
     assert "summary" in rest
 

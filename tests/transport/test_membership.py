@@ -129,7 +129,7 @@ def test_a_follower_that_left_ages_in_its_stats_then_is_forgotten(
     watch = Samples(sessions.node(port), key)
     with caplog.at_level(logging.INFO, "wiswarm_zenoh"), \
             LeaderNode(sessions.node(port), SWARM, stats_period=0.05, forget_after=1.0,
-                       **recorder.callbacks()) as leader:
+                       every_record=True, **recorder.callbacks()) as leader:
         first = sessions.node(port)
         node = FollowerNode(first, SWARM, "uav1")
         node.offer(b"frame")

@@ -49,7 +49,7 @@ def test_a_member_that_never_answers_barely_slows_the_others(
     for name in REAL:
         FollowerNode(sessions.node(port, "client"), SWARM, name, sample_on_poll=lambda: FRAME)
     config = LeaderConfig(in_flight=in_flight)
-    with LeaderNode(sessions.node(port, "client"), SWARM, config,
+    with LeaderNode(sessions.node(port, "client"), SWARM, config, every_record=True,
                     **recorder.callbacks()) as leader:
         recorder.wait("every follower served", lambda r: all(r.count(n) >= 20 for n in REAL))
         start = time.time()

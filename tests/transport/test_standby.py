@@ -56,7 +56,7 @@ def test_the_oldest_leader_polls_and_a_standby_takes_over_with_its_state(
     # millisecond may both poll for a moment, until each has heard the other's token.
     first.wait("the old leader delivers", lambda r: len(r.deliveries) >= 1)
     young = LeaderNode(sessions.node(port, "client"), SWARM, epoch=YOUNG, name="young",
-                       **second.callbacks())
+                       every_record=True, **second.callbacks())
     try:
         first.wait("the old leader delivers", lambda r: len(r.deliveries) >= 50)
         assert old.active and not young.active

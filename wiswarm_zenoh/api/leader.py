@@ -33,6 +33,8 @@ class Leader(Receiver[Delivered]):
     ROS 2. ``stats_period`` (seconds between stats) and ``forget_after`` (how long a
     departed follower's stats stay) default to the leader's own; ``epoch`` to the start
     time in microseconds. ``config`` holds the policy, timeouts and control period.
+    Each follower's stats are made while someone subscribes to them, or every round with
+    ``every_record`` (for ``stats`` in this process).
     """
 
     def __init__(
@@ -50,6 +52,7 @@ class Leader(Receiver[Delivered]):
         stats_period: float | None = None,
         forget_after: float | None = None,
         epoch: int | None = None,
+        every_record: bool = False,
     ) -> None:
         on_delivery, channel = deliver_to(handler)
         super().__init__(channel)
@@ -58,7 +61,8 @@ class Leader(Receiver[Delivered]):
             if value is not None}
         self._node = LeaderNode(session, swarm, config, on_delivery=on_delivery,
                                 on_join=on_join, on_leave=on_leave, on_role=on_role,
-                                epoch=epoch, name=name, bridge=bridge, **timings)
+                                epoch=epoch, name=name, bridge=bridge,
+                                every_record=every_record, **timings)
 
     @property
     def swarm(self) -> str:
@@ -97,7 +101,8 @@ class Leader(Receiver[Delivered]):
 
     @property
     def stats(self) -> list[FollowerStats]:
-        """Each follower's last published stats (``wiswarm/<swarm>/<id>/stats``)."""
+        """The last round's followers' stats (``wiswarm/<swarm>/<id>/stats``): those
+        someone subscribes to, or with ``every_record`` all of them."""
         return self._node.latest
 
     @property

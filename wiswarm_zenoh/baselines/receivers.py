@@ -212,7 +212,8 @@ class Receiver:
                 self._publishers[name].put(to_json(record))
             for gone in set(self._publishers) - {str(r["follower"]) for r in records}:
                 undeclare(self._publishers.pop(gone))
-            summary = LeaderSummary.of([stats for stats, _ in figures], 0.0, self.label,
+            summary = LeaderSummary.of({stats.follower: stats.mean_aoi_s for stats, _ in figures
+                                        if stats.present}, 0.0, self.label,
                                        now - self._started)
             self._leader_stats.put(to_json(summary.as_dict()))
             self.latest, self.summary = records, summary

@@ -23,6 +23,7 @@ from wiswarm_zenoh.baselines.stamp import (
 )
 from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, SyntheticFrames
 from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.transport.runners import (
     DeliveryRecord,
     ReadySignal,
@@ -97,12 +98,15 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
                            stop: StopSignal, ready: ReadySignal | None = None) -> None:
     """Each follower as if on a UAV of its own: a Zenoh session (its liveliness token, so
     the receiver and other tools see who is up; for push, its publisher too) and, for
-    udp/tcp, a socket. Stops when told to, or after ``duration``."""
+    udp/tcp, a socket. Stops when told to, or after ``duration``; ``NoRouterReached`` at
+    the end if one of them never reached the router it was pointed at."""
     keys = SwarmKeys(options.swarm)
+    watches = RouterWatches(spec.routers())
     with ExitStack() as stack:
         feeds: list[tuple[str, FifoSender, SyntheticFrames]] = []
         for follower in options.follower_ids:
             session = stack.enter_context(spec.open())
+            watches.add(session, f"follower {follower}")
             stack.enter_context(session.liveliness().declare_token(keys.member(follower)))
             sender = _open_sender(session, options, follower)
             stack.callback(sender.close)
@@ -113,10 +117,13 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
             stack.callback(frames.stop)
         if ready is not None:
             ready.set()
-        wait_until_stopped(stop, options.duration)
+        wait_until_stopped(stop, options.duration, watches.check)
+        reached = watches.finish()
         for follower, sender, _ in feeds:
             log.info("%s: %d frames offered, %d sent, %d dropped by the full FIFO", follower,
                      sender.fifo.offered, sender.fifo.sent, sender.fifo.dropped)
+    if not reached:
+        raise NoRouterReached
 
 
 @dataclass(frozen=True)
@@ -141,16 +148,27 @@ def run_receiver(spec: SessionSpec, options: ReceiverOptions, stop: StopSignal,
                  ready: ReadySignal | None = None,
                  show: Callable[[Receiver], None] | None = None) -> Receiver:
     """A baseline's receiver until stopped; ``show`` is called with it a few times a
-    second. Returns the (closed) receiver, whose last stats remain readable."""
+    second. Returns the (closed) receiver, whose last stats remain readable;
+    ``NoRouterReached`` instead if it never reached the router it was pointed at."""
     record = DeliveryRecord(options.record) if options.record else None
     try:
         with spec.open() as session, Receiver(session, options.swarm, options.system,
                                               options.bind, record=record) as receiver:
+            watch = RouterWatch(session, f"{options.system} receiver of {options.swarm!r}",
+                                spec.routers())
             if ready is not None:
                 ready.set()
-            wait_until_stopped(stop, options.duration,
-                               None if show is None else lambda: show(receiver))
+
+            def tick() -> None:
+                watch.check()
+                if show is not None:
+                    show(receiver)
+
+            wait_until_stopped(stop, options.duration, tick)
+            reached = watch.finish()
     finally:
         if record is not None:
             record.close()
+    if not reached:
+        raise NoRouterReached
     return receiver

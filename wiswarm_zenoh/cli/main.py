@@ -15,8 +15,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from wiswarm_zenoh.options import OneLineParser, UsageError
+from wiswarm_zenoh.transport.router_watch import NoRouterReached
 from wiswarm_zenoh.transport.runners import sigterm_as_ctrl_c
-from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
+from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 Registrar = Callable[[Any], None]  # adds its subcommands to ``subparsers``, each with ``func``
 
@@ -65,7 +66,7 @@ def main(argv: Sequence[str] | None = None,
     except SystemExit as exc:  # --help (0), or a bad flag: its one line is written
         return exc.code if isinstance(exc.code, int) else 2
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    logging.basicConfig(level=level, format=LOG_FORMAT)
     if args.command != "router":  # which starts Zenoh's log itself, showing denials
         init_zenoh_log(args.verbose)
     try:
@@ -74,6 +75,8 @@ def main(argv: Sequence[str] | None = None,
     except UsageError as exc:
         print(f"wiswarm {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except NoRouterReached:  # the node said so in its one line
+        return 1
     except KeyboardInterrupt:
         return 130
     return code

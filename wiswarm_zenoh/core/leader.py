@@ -80,7 +80,9 @@ class Leader:
         self._answered_seq = 0  # the poll answered last
         self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
         self.site_links = SiteLinks()
-        self.tuner = InFlightTuner() if self.config.in_flight == "auto" else None
+        in_flight = self.config.in_flight
+        self.tuner = InFlightTuner() if in_flight == "auto" else None
+        self._fixed_in_flight = 1 if in_flight == "auto" else in_flight
 
     @property
     def followers(self) -> list[str]:
@@ -97,16 +99,13 @@ class Leader:
         """Polls it keeps out at most now: ``config.in_flight``, or the tuner's (a trial's
         K during a trial)."""
         tuner = self.tuner
-        return self.in_flight_limit if tuner is None else tuner.current
+        return self._fixed_in_flight if tuner is None else tuner.current
 
     @property
     def in_flight_limit(self) -> int:
         """The polls it keeps out, trials aside: ``config.in_flight``, or what the tuner
         found."""
-        if self.tuner is not None:
-            return self.tuner.limit
-        assert self.config.in_flight != "auto"
-        return self.config.in_flight
+        return self._fixed_in_flight if self.tuner is None else self.tuner.limit
 
     @property
     def in_flight(self) -> str | None:
@@ -295,11 +294,16 @@ class Leader:
             wake = min(wake, min(flight.request.deadline for flight in flights.values()))
         return wake if math.isfinite(wake) else None
 
-    def stats(self, follower: str, now: float) -> FollowerStats:
-        """One follower's figures (one that left: ageing)."""
+    def stats(self, follower: str, now: float, refused_before: int = 0) -> FollowerStats:
+        """One follower's figures (one that left: ageing); ``refused_before``: its
+        replies the shell refused before they reached the core (counted in ``errors``)."""
         if follower in self._departed:
-            return self._departed[follower].stats(now, present=False)
-        return self._peer(follower).stats(now)
+            return self._departed[follower].stats(now, refused_before, present=False)
+        return self._peer(follower).stats(now, refused_before)
+
+    def mean_aoi(self, follower: str, now: float) -> float:
+        """A present follower's mean AoI so far (its ``stats`` without the rest)."""
+        return self._peer(follower).aoi.mean(now)
 
     # --- inside ---
 
@@ -307,9 +311,11 @@ class Leader:
         """No poll can find anything new before ``table.wake_at()`` (after ``now``):
         every live follower's source is paced and not due, no probe is due. (A swarm of
         silent followers only is polled on, as without pacing: one that came back is
-        found at once.)"""
+        found at once.) With no source paced and none silent, nothing is ever waited
+        for: no pass over the table."""
         table = self.table
-        return self._pacing and table.silent < len(table) and table.wake_at() > now
+        return self._pacing and table.unfresh > 0 and table.silent < len(table) \
+            and table.wake_at() > now
 
     def _peer(self, follower: str) -> Peer:
         try:

@@ -169,15 +169,16 @@ class Peer:
         self.want = "fresh"
         self._changed()
 
-    def stats(self, now: float, present: bool = True) -> FollowerStats:
+    def stats(self, now: float, refused_before: int = 0, present: bool = True) -> FollowerStats:
         """Its figures at ``now``: its age grows after it left, its mean, p95 and peak
-        are those of its time present."""
+        are those of its time present; ``refused_before`` counts among its errors."""
         until = now if present or self.left_at is None else min(now, self.left_at)
         return FollowerStats(
             follower=self.follower, aoi_s=self.aoi.age(now), mean_aoi_s=self.aoi.mean(until),
             p95_aoi_s=self.aoi.percentile(0.95, until), peak_aoi_s=self.aoi.peak(until),
             p_hat=self.reliability.value, weight=self.weight.value, polls=self.polls,
-            deliveries=self.aoi.deliveries, timeouts=self.timeouts, errors=self.errors,
+            deliveries=self.aoi.deliveries, timeouts=self.timeouts,
+            errors=self.errors + refused_before,
             stale=self.stale, clock_offset_s=self.clock.offset, present=present,
         )
 

@@ -18,6 +18,7 @@ from wiswarm_zenoh.experiments.sweep_report import (
 )
 from wiswarm_zenoh.sim.link import LinkParams, link_curve
 from wiswarm_zenoh.sim.metrics import WifiResult
+from wiswarm_zenoh.testbed.run import failed_line
 from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 from wiswarm_zenoh.units import format_rate
 
@@ -147,7 +148,8 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
     ch = config.channel
     ns: list[int] = [n for n in (8, 14) if n in config.ns] or [max(config.ns)]
     status = ("**Interrupted**: the figures cover the runs measured before Ctrl-C.\n\n"
-              if results.interrupted else "")
+              if results.interrupted else "") + failed_line(
+                  sum(o.failed for o in results.outcomes), "runs")
     events = [f"- {label_of(o.result)} N={o.result.n}: {e}"
               for o in results.outcomes for e in o.events]
     medium = (f"an emulated channel ({format_rate(ch.rate_bps)} up, "

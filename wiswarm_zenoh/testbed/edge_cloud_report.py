@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wiswarm_zenoh.testbed.edge_cloud_run import EdgeCloudResults, SetupResult
+from wiswarm_zenoh.testbed.run import failed_line
 from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)
@@ -199,7 +200,8 @@ def report(results: EdgeCloudResults) -> str:
     config, floor = results.config, floor_of(results)
     wan = config.wan
     status = ("**Interrupted**: only the setups measured before Ctrl-C are shown.\n\n"
-              if results.interrupted else "")
+              if results.interrupted else "") + failed_line(
+                  sum(r.failed for r in results.results), "setups")
     derivation = ["The floor is not measured: the edges-alone run is missing."]
     if floor is not None:
         derivation = [
@@ -234,7 +236,7 @@ def report(results: EdgeCloudResults) -> str:
         "",
         "## What happened during the runs",
         "",
-        *(events or ["- nothing: no process ended"]),
+        *(events or ["- nothing: every process ran to the end and stopped cleanly"]),
         "",
     ])
 

@@ -41,7 +41,7 @@ from wiswarm_zenoh.testbed.edge_cloud_topology import (
     cloud_router,
 )
 from wiswarm_zenoh.testbed.netns import run_in
-from wiswarm_zenoh.testbed.run import read_record, window_metrics
+from wiswarm_zenoh.testbed.run import ending, read_record, window_metrics
 from wiswarm_zenoh.testbed.spec import ChannelSpec
 from wiswarm_zenoh.testbed.study import FRAME_OVERHEAD
 from wiswarm_zenoh.transport.demo import Children
@@ -154,6 +154,7 @@ class SetupResult:
     wan_down_mbps: float
     least_age_s: float  # the youngest update delivered in the window (inf: none)
     events: list[str] = field(default_factory=list)
+    failed: int = 0  # processes that ended during the setup or not cleanly at its end
 
     def mean(self, name: str, at_edge: bool = False) -> float:
         rows = self.at_edge if at_edge else self.measured
@@ -177,7 +178,7 @@ def _swarms(setup: Setup, site: Site) -> tuple[str, str]:
     return f"ec-{setup.tag}-{site.name}", f"ec-{setup.tag}-c"
 
 
-class _Layers:
+class Layers:
     """A setup's children in three layers, stopped top down (cloud, edges, followers):
     no leader sees its followers vanish, nor an edge its cloud, as a setup ends. The
     links' children (routers, relays: ``links``) are watched with them, not stopped."""
@@ -187,6 +188,7 @@ class _Layers:
         ctx = multiprocessing.get_context("spawn")
         self.order = [stack.enter_context(Children(ctx)) for _ in range(3)]
         self.owner: dict[str, Children] = dict.fromkeys(link_names, links)
+        self._links = links
 
     def start(self, layer: int, name: str, *args: Any) -> None:
         self.owner[name] = self.order[layer]
@@ -199,12 +201,21 @@ class _Layers:
     def ended(self) -> list[str]:
         return [name for name, owner in self.owner.items() if not owner.alive(name)]
 
+    def exit_code(self, name: str) -> int | None:
+        return self.owner[name].exit_code(name)
+
+    def stopped_badly(self) -> list[str]:
+        """Once the setup's own children are stopped (the links' run on): how each one
+        that did not end cleanly ended."""
+        return [ending(name, code) for name, owner in self.owner.items()
+                if owner is not self._links and (code := owner.exit_code(name)) != 0]
+
     def restart(self, name: str) -> None:
         self.owner[name].restart(name, wait=False)
         self.owner[name].wait_ready(READY_TIMEOUT)
 
 
-def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
+def _start_site(layers: Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
                 records: Path) -> None:
     """The site's followers and, but for ``direct``, its edge leader."""
     swarm, cloud = _swarms(setup, site)
@@ -226,7 +237,7 @@ def _start_site(layers: _Layers, config: EdgeCloudConfig, setup: Setup, site: Si
                  client_of_local_router(), edge)
 
 
-def _start(layers: _Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setup,
+def _start(layers: Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setup,
            records: Path) -> list[str]:
     """Followers, edge leaders and cloud leaders of ``setup``, ready once every pair has
     been delivered where it is measured; returns the pair names."""
@@ -258,7 +269,7 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
     events: list[str] = []
     log.info("edge-cloud: %s starting", setup.label)
     with contextlib.ExitStack() as stack:
-        layers = _Layers(stack, *links)
+        layers = Layers(stack, *links)
         pairs = _start(layers, net, config, setup, records)
         started = time.time()
         t0, t1 = started + config.warmup, started + config.warmup + config.duration
@@ -270,7 +281,8 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
                     before = _wan(net)
                 tick((time.time() - started) / (t1 - started))
                 for name in layers.ended():
-                    events.append(f"t={time.time() - started:.1f}s: {name} ended; "
+                    events.append(f"t={time.time() - started:.1f}s: "
+                                  f"{ending(name, layers.exit_code(name), early=True)}; "
                                   "started again")
                     log.warning("%s: %s", setup.label, events[-1])
                     layers.restart(name)
@@ -278,6 +290,9 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
             stop.set()
         end = min(time.time(), t1)
         after = _wan(net)
+    stopping = layers.stopped_badly()
+    failed = len(events) + len(stopping)  # every event so far was a process that ended
+    events += [f"t={time.time() - started:.1f}s, stopping: {e}" for e in stopping]
     span = max(0.0, end - t0)
     edge_rows: dict[str, list[tuple[float, float]]] = {}
     for site in net.sites:
@@ -292,7 +307,7 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
     return SetupResult(
         setup, span, window_metrics(measured_rows, pairs, *window),
         [] if setup.kind == "direct" else window_metrics(edge_rows, pairs, *window),
-        up, down, _least_age(measured_rows, t0, end), events)
+        up, down, _least_age(measured_rows, t0, end), events, failed)
 
 
 def _wan(net: EdgeCloud) -> list[tuple[int, int]]:

@@ -119,6 +119,7 @@ class RunOutcome:
     result: WifiResult
     events: list[str] = field(default_factory=list)
     complete: bool = True  # False: cut short (Ctrl-C), measured over a shorter window
+    failed: int = 0  # processes that ended during the run or not cleanly at its end
 
 
 def window_metrics(rows: dict[str, list[tuple[float, float]]], followers: list[str],
@@ -218,21 +219,24 @@ def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Pa
     children.wait_ready()
 
 
-class _Children(Children):
-    """The run's processes, and how each one ended (for its report)."""
-
-    def exit_code(self, name: str) -> int | None:
-        """Child ``name``'s exit code; None while it runs."""
-        return self._procs[name].exitcode
-
-
-def ending(name: str, code: int | None) -> str:
-    """How a process ended, for a run's events: by an error, a signal, or not at all."""
+def ending(name: str, code: int | None, early: bool = False) -> str:
+    """How a process ended, for a run's events: one that ended during the run (``early``),
+    by an error or by a signal failed; ``None``: it never ended."""
     if code is None:
         return f"{name} process did not end"
-    if code < 0:
-        return f"{name} process was killed by signal {-code}"
-    return f"{name} process ended with exit code {code}"
+    how = f"killed by signal {-code}" if code < 0 else f"exit code {code}"
+    if early:
+        return f"{name} process failed: it ended during the run ({how})"
+    return f"{name} process failed: {how}"
+
+
+def failed_line(failed: int, where: str) -> str:
+    """A report's opening warning when processes failed (``where``: runs, setups), so
+    that figures from a broken run are not read as the system's; empty otherwise."""
+    if not failed:
+        return ""
+    return (f"**{failed} process failure(s)**: see what happened during the runs; the "
+            f"{where} they occurred in measured a system with a process missing.\n\n")
 
 
 class _Watch:
@@ -327,7 +331,8 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
                       f"({reasm0.held_bytes} B) at the start: UDP may lose frames to them")
         log.warning("%s", events[-1])
     names = ("router", "leader", *(group[0] for group in groups))
-    children = _Children(multiprocessing.get_context("spawn"))
+    failed = 0
+    children = Children(multiprocessing.get_context("spawn"))
     with children:
         _start_nodes(children, place, spec, record, groups)
         started = time.time()
@@ -340,8 +345,10 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
         while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
             for name in names:
                 if not children.alive(name):
+                    failed += 1
                     events.append(f"t={time.time() - started:.1f}s: "
-                                  f"{ending(name, children.exit_code(name))}; started again")
+                                  f"{ending(name, children.exit_code(name), early=True)}; "
+                                  "started again")
                     children.restart(name)
             if time.time() >= t0:
                 if not opened:
@@ -353,9 +360,11 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
         end = min(time.time(), t1)
         watch.sample()
         reasm1 = reassembly(channel.leader_ns)
+        children.stop([group[0] for group in groups])  # the senders before their receiver
     stopped = time.time() - started
-    events += [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
-               if (code := children.exit_code(name)) != 0]
+    stopping = [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
+                if (code := children.exit_code(name)) != 0]
+    events += stopping
     complete = end >= t1
     span = max(0.0, end - t0)
     metrics = window_metrics(read_record(record), spec.followers, started, t0,
@@ -365,4 +374,4 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
                         rate=None if spec.system == "wiswarm" else spec.rate,
                         frame_bytes=spec.frame_bytes, duration=span, seed=spec.batch,
                         followers=metrics, channel=counters)
-    return RunOutcome(result, events, complete)
+    return RunOutcome(result, events, complete, failed + len(stopping))

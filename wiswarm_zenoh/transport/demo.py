@@ -15,7 +15,7 @@ import multiprocessing
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from multiprocessing.context import SpawnContext, SpawnProcess
 from multiprocessing.synchronize import Event as ProcessEvent
@@ -81,6 +81,7 @@ class Children:
         self._procs: dict[str, SpawnProcess] = {}
         self._targets: dict[str, tuple[Callable[..., object], tuple[Any, ...]]] = {}
         self._starting: list[tuple[SpawnProcess, ProcessEvent]] = []  # not yet ready
+        self._stopped: set[str] = set()
 
     def start(self, name: str, target: Callable[..., object], *args: Any,
               wait: bool = True) -> None:
@@ -102,8 +103,10 @@ class Children:
 
     def _launch(self, name: str, wait: bool) -> None:
         target, args = self._targets[name]
+        self._stopped.discard(name)
         ready = self._ctx.Event()
-        proc = self._ctx.Process(target=run_child, args=(target, args, ready), name=name)
+        proc = self._ctx.Process(target=run_child, name=name, args=(
+            target, args, ready, logging.getLogger().getEffectiveLevel()))
         proc.start()
         self._procs[name] = proc
         self._starting.append((proc, ready))
@@ -130,6 +133,11 @@ class Children:
         """Whether child ``name`` is still running."""
         return self._procs[name].is_alive()
 
+    def exit_code(self, name: str) -> int | None:
+        """Child ``name``'s exit code (negative: the signal that ended it); None while
+        it runs. For reports that must say which process failed."""
+        return self._procs[name].exitcode
+
     def join(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds in all for every child to end; True if they did."""
         deadline = time.monotonic() + timeout
@@ -142,7 +150,13 @@ class Children:
 
     def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
                  tb: TracebackType | None) -> None:
-        procs = list(self._procs.values())
+        self.stop(list(self._procs))
+
+    def stop(self, names: Sequence[str]) -> None:
+        """Stop these children (those not stopped yet) now, before the others: senders
+        before their receiver, which would otherwise see them cut off as by a fault."""
+        procs = [self._procs[name] for name in names if name not in self._stopped]
+        self._stopped.update(names)
         for proc in procs:
             if proc.is_alive():
                 proc.terminate()  # SIGTERM: the child's request to stop

@@ -1,10 +1,9 @@
 """The leader on Zenoh: the core's thin shell (aioquic's asyncio adapter is the model).
 
 One thread owns the core: it feeds it what comes through one inbox (replies and ends
-of gets from Zenoh's thread, membership changes, the application's calls: so no lock
-is shared with any caller) and the timer, and sends its polls and events on
-(``outlets``). A get stays open to the ceiling (``--timeout``): a reply after the
-adaptive deadline still teaches the core.
+of gets from Zenoh's thread, membership changes, the application's calls: no lock is
+shared with any caller) and the timer, and sends its polls and events on (``outlets``).
+A get stays open to the ceiling: a reply after the adaptive deadline still teaches.
 """
 
 from __future__ import annotations
@@ -50,7 +49,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     oldest of a swarm's leaders polls, the others stand by (``leader_role``); ``name``
     (default: host and process id) tells them apart. A follower that left ages in the
     stats for ``forget_after`` s. ``bridge`` (e.g. ``wiswarm_zenoh.ros2.Ros2Options``)
-    gets each delivery and round of stats.
+    gets each delivery and round of stats. A follower's stats are made while someone
+    subscribes to them, or always with ``every_record`` (for ``latest``).
     """
 
     def __init__(
@@ -66,6 +66,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         clock: Callable[[], float] = time.time,
         rng: random.Random | None = None,
         stats_period: float = STATS_PERIOD,
+        every_record: bool = False,
         epoch: int | None = None,
         name: str | None = None,
         forget_after: float = FORGET_AFTER,
@@ -86,10 +87,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
         self._role = LeaderRole(session, self.keys, self.name, self._leader,
                                 partial(put, None), on_role)
-        self._stats = StatsRounds(session, self.keys, stats_period, clock(),
-                                  self.config.policy, self.name)
+        self._stats = StatsRounds(session, self.keys, stats_period, clock(), self.config.policy,
+                                  self.name, every_record or bridge is not None)
         self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
-                                on_delivery, clock)
+                                on_delivery, clock, lambda f: not self._stop.is_set() and
+                                f in self._membership.followers)
         self.bridge = self._outlets.bridge = \
             None if bridge is None else bridge.open(session, swarm, self)
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
@@ -99,7 +101,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
     @property
     def followers(self) -> list[str]:
-        """The followers polled, as of the last change of membership."""
+        """The followers polled (as of the last change of membership)."""
         return list(self._membership.followers)
 
     @property
@@ -119,7 +121,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
     @property
     def latest(self) -> list[FollowerStats]:
-        """The last whole round of followers' stats records (as published)."""
+        """The last round's followers' stats (with ``every_record``: all of them)."""
         return self._stats.latest
 
     @property
@@ -129,13 +131,12 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
     @property
     def fast_polls(self) -> int:
-        """Polls sent the moment the reply before them came (see the module's docstring)."""
+        """Polls sent on the pick made while the poll before was out (``Leader``)."""
         return self._leader.fast_polls
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
-        """New control information for one follower, broadcast with the next poll.
-        Raises ValueError at once for waypoints no follower may be sent or a follower
-        that is not polled."""
+        """New control for one follower, broadcast with the next poll (ValueError at once
+        for waypoints no follower may be sent, or a follower not polled)."""
         checked = validate_waypoints(waypoints)
         if follower not in self._membership.followers:
             raise ValueError(f"unknown follower {follower!r}")
@@ -181,15 +182,16 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                 wake_at = min(self._stats.due, deliveries.due, math.inf if timer is None else timer)
                 try:
                     command = self._inbox.get(timeout=max(0.0, wake_at - now))
+                    while True:  # all that came meanwhile (a reply and its get's end: one wake)
+                        if command is not None:
+                            command()
+                        command = self._inbox.get_nowait()
                 except queue.Empty:
                     leader.handle_timer(self._clock())
-                    continue
-                if command is not None:
-                    command()
         finally:
             self._hand_on()
 
-    def _hand_on(self) -> None:
+    def _hand_on(self) -> None:  # the core's events
         while (event := self._leader.next_event()) is not None:
             self._outlets.hand_on(event)
 
@@ -210,8 +212,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
 
     def _publish_stats(self, now: float) -> None:
-        """The stats due by ``now``; at a new round, followers gone long are forgotten
-        and an active leader rises above an epoch as high as its own (``hold``)."""
+        """The stats due; at a new round, followers gone long are forgotten first."""
         if self._stats.between_rounds:
             self._membership.forget_departed(now)
             self._role.hold(now)

@@ -24,7 +24,11 @@ from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 
-ZENOH_TIMEOUT = b"Timeout"  # the error reply Zenoh itself gives a get that timed out
+ZENOH_TIMEOUT = b"Timeout"
+
+
+def _set_matching(link: FollowerLink, flag: str, status: zenoh.MatchingStatus) -> None:
+    setattr(link, flag, status.matching)  # the error reply Zenoh itself gives a get that timed out
 
 
 @dataclass
@@ -35,8 +39,9 @@ class FollowerLink:
     stats: zenoh.Publisher
     fresh: zenoh.Publisher
     listening: bool = False  # some subscriber matches ``fresh``
+    stats_listening: bool = False  # some subscriber matches ``stats``
     errors: int = 0  # replies refused here, before the core (error replies, oversized)
-    _listener: zenoh.MatchingListener[None] | None = field(default=None, repr=False)
+    _listeners: list[zenoh.MatchingListener[None]] = field(default_factory=list, repr=False)
     querier: zenoh.Querier | None = field(default=None, repr=False)
     _on_reply: Callable[[zenoh.Reply], object] | None = field(default=None, repr=False)
     _on_end: Callable[[FollowerLink, int], object] | None = field(default=None, repr=False)
@@ -63,18 +68,18 @@ class FollowerLink:
                 key, target=zenoh.QueryTarget.ALL,
                 consolidation=zenoh.ConsolidationMode.NONE, timeout=ceiling),
         )
-        # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
-        # with no thread kept per follower for it.
         link._on_reply = partial(on_reply, link)
         link._on_end = on_end
-        link._listener = link.fresh.declare_matching_listener(
-            zenoh.handlers.Callback(link._on_matching, indirect=False)
-        )
-        # A subscriber already there counts from the first delivery on: the listener's
-        # first call comes later, from another thread. (The stubs say this property is a
-        # bool; eclipse-zenoh 1.10 returns a MatchingStatus.)
-        status = cast(zenoh.MatchingStatus, link.fresh.matching_status)
-        link.listening = status.matching
+        # On Zenoh's own thread (a flag set, nothing more): the status is current at once,
+        # with no thread kept per follower for it. Stats and fresh updates are made only
+        # while someone listens (a subscriber already there counts at once: the
+        # listener's first call comes later, from another thread).
+        for publisher, flag in ((link.fresh, "listening"), (link.stats, "stats_listening")):
+            link._listeners.append(publisher.declare_matching_listener(
+                zenoh.handlers.Callback(partial(_set_matching, link, flag), indirect=False)))
+            # (The stubs say this property is a bool; eclipse-zenoh 1.10 returns a
+            # MatchingStatus.)
+            setattr(link, flag, cast(zenoh.MatchingStatus, publisher.matching_status).matching)
         return link
 
     def poll(self, payload: bytes, poll_seq: int) -> None:
@@ -104,12 +109,9 @@ class FollowerLink:
             return None
         return data
 
-    def _on_matching(self, status: zenoh.MatchingStatus) -> None:
-        self.listening = status.matching
-
     def close(self) -> None:
-        if self._listener is not None:
-            undeclare(self._listener)
+        undeclare(*self._listeners)
+        self._listeners.clear()
         if self.querier is not None:
             undeclare(self.querier)
             self.querier = None

@@ -2,7 +2,7 @@
 the control broadcast when due; each delivery to its follower's ``fresh`` key (while
 anyone listens), the delivery stream, a bridge and the application; unanswered polls
 to the delivery stream; bad input to the log with its key; a follower's silence and
-return to the log."""
+return to the log (a silence once it lasts: ``silence``)."""
 
 from __future__ import annotations
 
@@ -28,6 +28,7 @@ from wiswarm_zenoh.transport.delivery_stream import DeliveryStream
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.silence import SilenceLog
 from wiswarm_zenoh.transport.telemetry import fresh_attachment
 
 log = logging.getLogger("wiswarm_zenoh.transport.leader_node")
@@ -48,8 +49,10 @@ class Outlets:
     def __init__(self, session: zenoh.Session, keys: SwarmKeys,
                  links: Mapping[str, FollowerLink], bad_input: BadInputLog,
                  on_delivery: Callable[[Delivered], None] | None,
-                 clock: Callable[[], float]) -> None:
+                 clock: Callable[[], float],
+                 present: Callable[[str], bool] = lambda follower: True) -> None:
         self._keys, self._links = keys, links
+        self._silence = SilenceLog(present)  # present: still polled, by a leader that runs
         self._bad_input, self._on_delivery, self._clock = bad_input, on_delivery, clock
         self.deliveries = DeliveryStream(session, keys)
         self._control = session.declare_publisher(keys.control, express=True)
@@ -75,17 +78,17 @@ class Outlets:
             case TimedOut(follower=follower, poll_seq=poll_seq):
                 self.deliveries.add(event, self._clock())
                 log.debug("poll %d of %s unanswered", poll_seq, follower)
-            case Rejected(follower=follower, reason=reason) | Stale(follower=follower,
-                                                                    reason=reason):
+            case Rejected(follower=follower, reason=reason):
                 self._bad_input.report(self._keys.update(follower), reason)
+            case Stale(follower=follower, reason=reason):  # late, after our own timeout
+                self._bad_input.report(self._keys.update(follower), reason, expected=True)
             case Silent(follower=follower, answered_before=False):
                 log.info("follower %s has not answered its first poll (not up yet, no "
                          "queryable, or no valid reply): probing it alone", follower)
             case Silent(follower=follower, polls=polls):
-                log.warning("follower %s stopped answering (its last %d polls went "
-                            "unanswered): probing it alone now", follower, polls)
+                self._silence.silent(follower, polls)
             case Answering(follower=follower, silent_for=silent_for):
-                log.info("follower %s answers again, after %.1f s", follower, silent_for)
+                self._silence.answering(follower, silent_for)
 
     def close(self) -> None:
         self.deliveries.close()

@@ -5,7 +5,9 @@ default log level; a node that is cut off from the swarm must say so, in its own
 Checked a few times a second from the node's supervision loop (``wait_until_stopped``).
 A node told where its router is (``endpoints``) that has reached none after
 ``STARTUP_GRACE`` says so once, with what to check (nothing listening there, or a TLS
-router asked without TLS), and says it again the moment one is reached.
+router asked without TLS), and says it again the moment one is reached. One that has
+reached none by its end says so in one line and its process exits 1 (``NoRouterReached``):
+a run that exchanged nothing is not a success.
 """
 
 from __future__ import annotations
@@ -21,6 +23,10 @@ log = logging.getLogger(__name__)
 STARTUP_GRACE = 3.0  # seconds a node may take to reach its router before it says so
 
 
+class NoRouterReached(Exception):
+    """A node pointed at a router ended without ever reaching one (already logged)."""
+
+
 class RouterWatch:
     """Logs the moment ``session`` has no router any more, and when it has one again."""
 
@@ -32,15 +38,21 @@ class RouterWatch:
         self._started = time.monotonic()
         self._unreached_said = False
         self._connected = self._routers() > 0  # a peer with no router never warns
+        self._reached = self._connected  # a router, or a peer at its endpoint, ever
         self._lost_at: float | None = None
 
     def _routers(self) -> int:
         return sum(1 for _ in self._session.info.routers_zid())
 
+    def _anyone(self, routers: int) -> bool:
+        """A router, or a peer reached at the node's endpoint (which counts too)."""
+        return routers > 0 or any(True for _ in self._session.info.peers_zid())
+
     def check(self) -> None:
         routers = self._routers()
-        if not self._connected:  # a peer reached at its endpoint counts too
-            self._check_first(routers > 0 or any(True for _ in self._session.info.peers_zid()))
+        if not self._reached:
+            self._reached = self._anyone(routers)
+            self._check_first(self._reached)
         if routers and self._lost_at is not None:
             log.warning("%s: router reached again after %.1f s", self._node,
                         time.monotonic() - self._lost_at)
@@ -63,3 +75,34 @@ class RouterWatch:
                         "(wiswarm router -l ...)? A TLS router takes tls/HOST:PORT and this "
                         "node's config from wiswarm security. Still trying", self._node,
                         where, waited)
+
+    def finish(self) -> bool:
+        """At the node's end, before its session closes: False, said in one line, if it
+        was pointed at a router and never reached one (nor a peer there)."""
+        self._reached = self._reached or self._anyone(self._routers())
+        if self._reached or not self._endpoints:
+            return True
+        log.error("%s: no router was ever reached at %s in %.0f s: nothing was exchanged. "
+                  "Is one listening there (wiswarm router -l ...)? A TLS router takes "
+                  "tls/HOST:PORT and this node's config from wiswarm security", self._node,
+                  ", ".join(self._endpoints), time.monotonic() - self._started)
+        return False
+
+
+class RouterWatches:
+    """The watches of several sessions in one process (followers sharing a host), as one."""
+
+    def __init__(self, endpoints: Sequence[str]) -> None:
+        self._endpoints = list(endpoints)
+        self._watches: list[RouterWatch] = []
+
+    def add(self, session: zenoh.Session, node: str) -> None:
+        self._watches.append(RouterWatch(session, node, self._endpoints))
+
+    def check(self) -> None:
+        for watch in self._watches:
+            watch.check()
+
+    def finish(self) -> bool:
+        """``RouterWatch.finish`` of each (each says its own); False if any failed."""
+        return all([watch.finish() for watch in self._watches])

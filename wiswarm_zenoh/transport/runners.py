@@ -33,9 +33,9 @@ from wiswarm_zenoh.transport.frames import (
     capture_time,
 )
 from wiswarm_zenoh.transport.leader_node import LeaderNode
-from wiswarm_zenoh.transport.router_watch import RouterWatch
+from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
-from wiswarm_zenoh.transport.zenoh_log import init_zenoh_log
+from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 log = logging.getLogger(__name__)
 
@@ -105,8 +105,11 @@ def sigterm_as_ctrl_c() -> Iterator[None]:
 
 
 def run_child(target: Callable[..., object], args: tuple[Any, ...],
-              ready: ReadySignal) -> None:
+              ready: ReadySignal, log_level: int = logging.WARNING) -> None:
     """Entry point of a ``spawn`` child: runs ``target(*args, stop, ready)`` until SIGTERM.
+    Its log lines look like its parent's (``LOG_FORMAT``, at ``log_level``): a spawned
+    process starts with no logging set up, and its warnings came out bare, with no time
+    or level to tell them by.
 
     Children stop on SIGTERM (``Process.terminate()``) rather than on a shared
     ``multiprocessing.Event``: such an event is left locked for good if a process is
@@ -116,11 +119,14 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
     only cut the interpreter's shutdown short (and it would show as a crash). SIG_IGN
     holds through the interpreter's finalisation; a Python handler does not.
     """
+    logging.basicConfig(level=log_level, format=LOG_FORMAT)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         target(*args, stop, ready)
+    except NoRouterReached:  # said in its one line: no traceback, exit code 1
+        raise SystemExit(1) from None
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
 
@@ -153,7 +159,8 @@ class FollowerOptions:
 
 def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
                  ready: ReadySignal | None = None) -> None:
-    """A follower sending synthetic frames until stopped."""
+    """A follower sending synthetic frames until stopped; ``NoRouterReached`` at its
+    end if it never reached the router it was pointed at."""
     run_followers(spec, [options], stop, ready)
 
 
@@ -161,13 +168,14 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
                   ready: ReadySignal | None = None) -> None:
     """Several followers in one host process, each with a Zenoh session of its own (as on
     a UAV of its own): spares the CPU of a process per follower in experiments. Stops at
-    the first follower's ``duration``."""
+    the first follower's ``duration``; ``NoRouterReached`` at the end if one of them
+    never reached the router it was pointed at."""
+    watches = RouterWatches(spec.routers())
     with contextlib.ExitStack() as stack:
-        feeds, watches = [], []
+        feeds = []
         for option in options:
             session = stack.enter_context(spec.open())
-            watches.append(RouterWatch(session, f"follower {option.follower_id}",
-                                       spec.connect))
+            watches.add(session, f"follower {option.follower_id}")
             node = stack.enter_context(
                 FollowerNode(session, option.swarm, option.follower_id, option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
@@ -178,14 +186,13 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         if ready is not None:
             ready.set()
 
-        def check_routers() -> None:
-            for watch in watches:
-                watch.check()
-
-        wait_until_stopped(stop, options[0].duration if options else None, check_routers)
+        wait_until_stopped(stop, options[0].duration if options else None, watches.check)
+        reached = watches.finish()
         for option, node, frames in feeds:
             log.info("follower %s: %d frames offered, %d polls answered",
                      option.follower_id, frames.frames, node.polls)
+    if not reached:
+        raise NoRouterReached
 
 
 class DeliveryRecord:
@@ -239,7 +246,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                ready: ReadySignal | None = None,
                show: Callable[[LeaderNode], None] | None = None) -> LeaderNode:
     """The leader until stopped; ``show`` is called with the node a few times a second.
-    Returns the (closed) node, whose last stats remain readable."""
+    Returns the (closed) node, whose last stats remain readable; ``NoRouterReached``
+    instead if it never reached the router it was pointed at."""
     record = (DeliveryRecord(options.record, options.record_capture_stamps)
               if options.record else None)
     try:
@@ -258,11 +266,11 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                name=options.name,
-                bridge=options.bridge)
+                name=options.name, bridge=options.bridge,
+                every_record=show is not None or options.stats_file is not None)
             if upstream is not None:
                 upstream.set_control = node.set_control
-            _lead(node, session, spec.connect, options, stop, ready, show)
+            reached = _lead(node, session, spec.routers(), options, stop, ready, show)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
@@ -270,6 +278,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
     finally:
         if record is not None:
             record.close()
+    if not reached:
+        raise NoRouterReached
     return node
 
 
@@ -288,8 +298,9 @@ def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream |
 
 def _lead(node: LeaderNode, session: zenoh.Session, endpoints: Sequence[str],
           options: LeaderOptions, stop: StopSignal, ready: ReadySignal | None,
-          show: Callable[[LeaderNode], None] | None) -> None:
-    """Run ``node`` until stopped; ``show`` it a few times a second."""
+          show: Callable[[LeaderNode], None] | None) -> bool:
+    """Run ``node`` until stopped; ``show`` it a few times a second. False if it never
+    reached the router at ``endpoints`` (said in one line)."""
     with node:
         if ready is not None:
             ready.set()
@@ -301,3 +312,4 @@ def _lead(node: LeaderNode, session: zenoh.Session, endpoints: Sequence[str],
                 show(node)
 
         wait_until_stopped(stop, options.duration, tick)
+        return watch.finish()

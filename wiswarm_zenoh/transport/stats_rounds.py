@@ -1,6 +1,9 @@
-"""The active leader's stats on Zenoh: each follower's record once a period, spread
-evenly over it (a record or two per poll for a thousand followers, not all of them at
-once while polling waits), and the summary on ``leader/stats`` once a round is done."""
+"""The active leader's stats on Zenoh: the summary on ``leader/stats`` once a round,
+and each follower's record while a subscriber matches its ``stats`` key (DESIGN.md's
+contract: so a leader of a thousand followers that nobody watches one by one pays
+nothing for them), spread evenly over the round (a record or two per poll, not all at
+once while polling waits). ``every_record``: every follower's, for a reader in this
+process (a live table, a stats file at exit: ``LeaderNode.latest``)."""
 
 from __future__ import annotations
 
@@ -15,7 +18,7 @@ from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.outlets import notify
-from wiswarm_zenoh.transport.telemetry import LeaderSummary, follower_stats, to_json
+from wiswarm_zenoh.transport.telemetry import LeaderSummary, to_json
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile
 
@@ -24,8 +27,9 @@ class StatsRounds:
     """Rounds of stats; ``due`` says when the next records are owed."""
 
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, period: float,
-                 started: float, policy: str, name: str) -> None:
+                 started: float, policy: str, name: str, every_record: bool = False) -> None:
         self._period = period
+        self._every_record = every_record
         self._started = started
         self._policy = policy
         self._name = name
@@ -64,7 +68,8 @@ class StatsRounds:
     def publish(self, now: float, leader: Leader, links: Mapping[str, FollowerLink]) -> None:
         """Publish the records due by ``now`` (and the summary if the round is done)."""
         if not self._owed:
-            self._owed = deque(leader.followers + leader.departed)
+            self._owed = deque(f for f in leader.followers + leader.departed
+                               if self._every_record or _listened(links, f))
             self._round_start, self._round_size, self._records = now, len(self._owed), []
         start, size = self._round_start, self._round_size
         owed_now = min(size, int(size * (now - start) / self._period) + 1)
@@ -73,10 +78,11 @@ class StatsRounds:
             follower = self._owed.popleft()
             link = links.get(follower)
             if link is not None:  # not gone since the round began
-                batch.append(follower_stats(leader.stats(follower, now), link.errors))
+                batch.append(leader.stats(follower, now, link.errors))
         polls, epoch, in_flight = leader.polls, leader.epoch, leader.in_flight_limit
         for record in batch:
-            links[record.follower].stats.put(to_json(record.as_dict()))
+            if _listened(links, record.follower):
+                links[record.follower].stats.put(to_json(record.as_dict()))
         self._records += batch
         if self._owed:
             self.due = start + self._period * (size - len(self._owed)) / size
@@ -84,7 +90,8 @@ class StatsRounds:
         self.due = start + self._period
         mark_time, mark_polls = self._mark
         rate = (polls - mark_polls) / (now - mark_time) if now > mark_time else 0.0
-        summary = LeaderSummary.of(self._records, rate, self._policy, now - self._started,
+        present = {f: leader.mean_aoi(f, now) for f in leader.followers}
+        summary = LeaderSummary.of(present, rate, self._policy, now - self._started,
                                    self._name, epoch, in_flight)
         self._publisher.put(to_json(summary.as_dict()))
         self.latest, self.summary = self._records, summary
@@ -92,3 +99,8 @@ class StatsRounds:
 
     def close(self) -> None:
         undeclare(self._publisher)
+
+
+def _listened(links: Mapping[str, FollowerLink], follower: str) -> bool:
+    link = links.get(follower)
+    return link is not None and link.stats_listening

@@ -2,18 +2,11 @@
 
 from __future__ import annotations
 
-import dataclasses
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 
-from wiswarm_zenoh.core import Delivered, FollowerStats
-
-
-def follower_stats(stats: FollowerStats, transport_errors: int) -> FollowerStats:
-    """One follower's stats; ``errors`` adds the replies the transport already refused
-    (error replies, oversized payloads) to those the core rejected."""
-    return dataclasses.replace(stats, errors=stats.errors + transport_errors)
+from wiswarm_zenoh.core import Delivered
 
 
 @dataclass(frozen=True)
@@ -30,14 +23,14 @@ class LeaderSummary:
     in_flight: int = 1  # polls it keeps out now (with --in-flight auto: as it found)
 
     @classmethod
-    def of(cls, records: Sequence[FollowerStats], polls_per_s: float, policy: str,
+    def of(cls, present: Mapping[str, float], polls_per_s: float, policy: str,
            uptime_s: float, leader: str = "", epoch: int = 0,
            in_flight: int = 1) -> LeaderSummary:
-        """The summary of one round of ``records``: the followers present, their mean AoI."""
-        present = [r for r in records if r.present]  # those that left: in their own stats
-        means = [r.mean_aoi_s for r in present]
+        """The summary of the followers ``present`` (each with its mean AoI; those that
+        left are in their own stats)."""
+        means = list(present.values())
         return cls(
-            followers=[r.follower for r in present], polls_per_s=polls_per_s,
+            followers=list(present), polls_per_s=polls_per_s,
             mean_aoi_s=sum(means) / len(means) if means else 0.0, policy=policy,
             uptime_s=uptime_s, leader=leader, epoch=epoch, in_flight=in_flight,
         )

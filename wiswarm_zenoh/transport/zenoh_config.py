@@ -149,6 +149,16 @@ class SessionSpec:
             multicast_scouting=self.multicast_scouting,
         )
 
+    def routers(self) -> list[str]:
+        """Where the node looks for its router: the flags' endpoints, else its config
+        file's (a map by mode taken whole)."""
+        if self.connect or self.config_file is None:
+            return list(self.connect)
+        endpoints = json.loads(self.config().get_json("connect/endpoints"))
+        if isinstance(endpoints, dict):
+            return [str(e) for each in endpoints.values() for e in each]
+        return [str(e) for e in endpoints]
+
     def open(self) -> zenoh.Session:
         """Open a session; a failure (endpoint in use, router unreachable) is a UsageError."""
         config = self.config()

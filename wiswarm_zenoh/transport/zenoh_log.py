@@ -17,6 +17,7 @@ import zenoh
 
 from wiswarm_zenoh.transport.acl_log import DenialFilter
 
+LOG_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"  # ours, every process
 ACCESS_CONTROL = "zenoh::net::routing::interceptor::access_control"
 # Zenoh's warnings that are expected consequences of this design, hidden at the default
 # level (``-v`` or ``RUST_LOG`` shows them): a reply or final that comes after its get

@@ -201,7 +201,7 @@ def _open_leader(session: zenoh.Session, options: DemoOptions,
     if options.system == "wiswarm":
         config = LeaderConfig(policy=options.policy)
         with Leader(session, SWARM, reception.on_delivered, config=config,
-                    bridge=options.ros2) as node:
+                    bridge=options.ros2, every_record=True) as node:  # weights shown
             yield _Leader(
                 node, lambda: {r.follower: r.weight for r in node.stats},
                 lambda: node.polls,
