@@ -18,9 +18,9 @@ from pathlib import Path
 from statistics import mean
 
 from wiswarm_zenoh.core.config import InFlight
+from wiswarm_zenoh.experiments.edge_cloud_run import EdgeCloudConfig, run_edge_cloud
 from wiswarm_zenoh.testbed import ChannelSpec, TestbedUnavailable, check_available
 from wiswarm_zenoh.testbed.channel import Channel
-from wiswarm_zenoh.testbed.edge_cloud_run import EdgeCloudConfig, run_edge_cloud
 from wiswarm_zenoh.testbed.run import RunSpec, measure
 
 

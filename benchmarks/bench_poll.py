@@ -53,17 +53,17 @@ import zenoh
 
 from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
-from wiswarm_zenoh.security.acl import Roster
-from wiswarm_zenoh.security.deploy import Plan, init
-from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.frames import SyntheticFrames
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.frames import SyntheticFrames
+from wiswarm_zenoh.programs.runners import (
     ReadySignal,
     StopSignal,
     run_child,
     run_router,
     wait_until_stopped,
 )
+from wiswarm_zenoh.security.acl import Roster
+from wiswarm_zenoh.security.deploy import Plan, init
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 

@@ -67,13 +67,13 @@ import zenoh
 from bench_poll import NO_SHM, Job, children
 from reply_pollers import POLL, ChainPoller, FifoPoller, Poller, QueuePoller
 
-from wiswarm_zenoh.transport import SessionSpec
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.runners import (
     ReadySignal,
     StopSignal,
     run_router,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport import SessionSpec
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 KEY = "wiswarm/benchreply/{}/update"

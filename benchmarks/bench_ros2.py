@@ -47,10 +47,10 @@ from bench_poll import (
 from mcap.reader import make_reader
 
 from wiswarm_zenoh.core import Delivered, LeaderConfig
+from wiswarm_zenoh.programs.runners import run_router
 from wiswarm_zenoh.recording import SwarmRecording
 from wiswarm_zenoh.ros2 import IMAGE, Output, Ros2Options, header, message_class
 from wiswarm_zenoh.transport import SessionSpec
-from wiswarm_zenoh.transport.runners import run_router
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 NO_SHM = ("transport/shared_memory/enabled:false",)

@@ -53,13 +53,13 @@ from bench_poll import BARE, NO_SHM, Job, children, serve_bare, wait_for_routes
 from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.wire import Poll, encode_poll
-from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.runners import (
     ReadySignal,
     StopSignal,
     run_router,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 SWARM = "bench"

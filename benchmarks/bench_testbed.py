@@ -19,10 +19,10 @@ import tempfile
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.sweep_report import gains_table
+from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import floor_lines, summarise
 from wiswarm_zenoh.options import ProgressBar
 from wiswarm_zenoh.testbed import ChannelSpec, TestbedUnavailable, check_available
-from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.units import parse_rate
 
 

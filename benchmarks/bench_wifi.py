@@ -21,12 +21,12 @@ import tempfile
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.sweep_report import gains_table
+from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import floor_lines, medium_lines, summarise
 from wiswarm_zenoh.options import ProgressBar
 from wiswarm_zenoh.testbed import TestbedUnavailable, check_available
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.run import RunSpec, measure
-from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.testbed.wifi import MediumFailed, WifiMedium, WifiSpec
 
 LOADS = (("wiswarm", 100.0), ("push-block", 50.0))

@@ -19,7 +19,8 @@ PACKAGE = ROOT / "wiswarm_zenoh"
 # What an application may import from: the middleware's packages, by what they export
 # (``options``: what a command line built on it needs, as ``wiswarm``'s own uses).
 PUBLIC = {"wiswarm_zenoh", "wiswarm_zenoh.core", "wiswarm_zenoh.transport",
-          "wiswarm_zenoh.testbed", "wiswarm_zenoh.baselines", "wiswarm_zenoh.options",
+          "wiswarm_zenoh.programs", "wiswarm_zenoh.experiments", "wiswarm_zenoh.testbed",
+          "wiswarm_zenoh.baselines", "wiswarm_zenoh.options",
           "wiswarm_zenoh.dashboard", "wiswarm_zenoh.ros2", "wiswarm_zenoh.recording"}
 
 
@@ -63,6 +64,14 @@ def test_transport_is_the_zenoh_shell_only(module: Path) -> None:
     beyond = [m for m, _ in imports(module) if m.startswith("wiswarm_zenoh")
               and ".".join(m.split(".")[:2]) not in SHELL_BELOW]
     assert not beyond, f"{module.name} imports {beyond}"
+
+
+@pytest.mark.parametrize("module", sources(PACKAGE / "core") + sources(PACKAGE / "sim"),
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_the_core_and_the_simulator_run_no_program_or_experiment(module: Path) -> None:
+    upward = [m for m, _ in imports(module)
+              if m.startswith(("wiswarm_zenoh.programs", "wiswarm_zenoh.experiments"))]
+    assert not upward, f"{module.name} imports {upward}"
 
 
 @pytest.mark.parametrize("module", sources(PACKAGE / "cli"), ids=lambda p: str(p.relative_to(ROOT)))

@@ -17,8 +17,8 @@ import pytest
 from tests.transport.helpers import Sessions
 from wiswarm_zenoh.core import FollowerConfig
 from wiswarm_zenoh.dashboard import Dashboard
-from wiswarm_zenoh.transport import Children
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs import Children
+from wiswarm_zenoh.programs.runners import (
     FollowerOptions,
     LeaderOptions,
     run_followers,

@@ -15,9 +15,9 @@ from wiswarm_zenoh.dashboard.feed import points_key
 from wiswarm_zenoh.dashboard.live_points import LivePoints, run_name, study_by_n, sweep_by_n
 from wiswarm_zenoh.dashboard.records import parse_points
 from wiswarm_zenoh.experiments.sweep import SweepConfig, run_sweep
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.run import RunOutcome
-from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 
 from .conftest import loopback
 

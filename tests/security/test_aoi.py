@@ -10,8 +10,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from wiswarm_zenoh.programs.frames import SyntheticFrames
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.frames import SyntheticFrames
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 from .helpers import SWARM, WAIT, make_swarm

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli
+from wiswarm_zenoh.experiments.edge_cloud_topology import RECORDS, cleanup_leftovers
 from wiswarm_zenoh.testbed.channel import list_channels
-from wiswarm_zenoh.testbed.edge_cloud_topology import RECORDS, cleanup_leftovers
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 
 pytestmark = pytest.mark.testbed
@@ -74,7 +74,7 @@ def test_a_short_run_delivers_every_pair_with_ages_added_across_the_wan(
 
 
 def test_a_topology_whose_owner_was_killed_is_removed_by_the_next_cleanup() -> None:
-    script = ("from wiswarm_zenoh.testbed.edge_cloud_topology import EdgeCloud, WanSpec\n"
+    script = ("from wiswarm_zenoh.experiments.edge_cloud_topology import EdgeCloud, WanSpec\n"
               "from wiswarm_zenoh.testbed.spec import ChannelSpec\n"
               "import sys, threading\n"
               "net = EdgeCloud(1, ChannelSpec(), WanSpec()).build()\n"

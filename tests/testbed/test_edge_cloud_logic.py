@@ -11,18 +11,18 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli
-from wiswarm_zenoh.sim.metrics import FollowerMetrics
-from wiswarm_zenoh.testbed.edge_cloud_report import Floor, floor_of, report, write_all
-from wiswarm_zenoh.testbed.edge_cloud_run import (
+from wiswarm_zenoh.experiments.edge_cloud_report import Floor, floor_of, report, write_all
+from wiswarm_zenoh.experiments.edge_cloud_run import (
     EdgeCloudConfig,
     EdgeCloudResults,
     Layers,
     Setup,
     SetupResult,
 )
-from wiswarm_zenoh.testbed.edge_cloud_topology import WanSpec
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.runners import ReadySignal, StopSignal
+from wiswarm_zenoh.experiments.edge_cloud_topology import WanSpec
+from wiswarm_zenoh.programs.demo import Children
+from wiswarm_zenoh.programs.runners import ReadySignal, StopSignal
+from wiswarm_zenoh.sim.metrics import FollowerMetrics
 
 PAIRS = [f"s{s}.uav{i}" for i in range(6) for s in (1, 2)]
 

@@ -15,14 +15,14 @@ from pathlib import Path
 
 import pytest
 
+from wiswarm_zenoh.experiments.testbed_study import measure_fresh
+from wiswarm_zenoh.programs.demo import Children
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
+from wiswarm_zenoh.programs.runners import ReadySignal, StopSignal
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, list_channels
 from wiswarm_zenoh.testbed import run as run_module
 from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure
-from wiswarm_zenoh.testbed.study import measure_fresh
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
-from wiswarm_zenoh.transport.runners import ReadySignal, StopSignal
 
 pytestmark = pytest.mark.testbed
 RATE_MBPS = 20.0

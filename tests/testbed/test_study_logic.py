@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
+from wiswarm_zenoh.experiments.testbed_study import Job, StudyConfig, best_rate, plan
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.run import RunOutcome, RunSpec, window_metrics
-from wiswarm_zenoh.testbed.study import Job, StudyConfig, best_rate, plan
 
 
 def _search(config: StudyConfig, n: int, aoi_of_rate: dict[float, float]

@@ -10,10 +10,10 @@ from matplotlib.container import ErrorbarContainer
 
 from wiswarm_zenoh.experiments.sweep import METRICS, Point
 from wiswarm_zenoh.experiments.sweep_report import figure_against_n
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults
 from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.run import RunOutcome, ending
-from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 
 SYSTEMS = ("push-block", "push-drop", "udp", "tcp")
 

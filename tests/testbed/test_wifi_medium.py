@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 
 from wiswarm_zenoh.cli import main as cli
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.ownership import namespace_exists, process_start
 from wiswarm_zenoh.testbed.run import RunSpec, measure
@@ -26,7 +27,6 @@ from wiswarm_zenoh.testbed.wifi import (
     cleanup_leftovers,
     list_media,
 )
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
 NS3_MISSING = unavailable_reason()
 pytestmark = [pytest.mark.testbed,

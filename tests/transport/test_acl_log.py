@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from wiswarm_zenoh.transport.acl_log import TABLE_ROWS, DenialFilter
+from wiswarm_zenoh.programs.acl_log import TABLE_ROWS, DenialFilter
 
 HEAD = (b"\x1b[2m2026-11-23T11:35:12.048846Z\x1b[0m \x1b[35mTRACE\x1b[0m rx-0 ThreadId(08) "
         b"\x1b[2mzenoh::net::routing::interceptor::access_control\x1b[0m\x1b[2m:\x1b[0m ")

@@ -12,8 +12,8 @@ import zenoh
 
 from wiswarm_zenoh.core import LeaderConfig
 from wiswarm_zenoh.core.wire import Reply, decode_poll, encode_reply
+from wiswarm_zenoh.programs.frames import SyntheticFrames
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode
-from wiswarm_zenoh.transport.frames import SyntheticFrames
 
 from .helpers import WAIT, Recorder, Samples, Sessions
 

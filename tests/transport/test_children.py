@@ -7,8 +7,8 @@ from multiprocessing.synchronize import Barrier
 
 import pytest
 
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.runners import ReadySignal, StopSignal
+from wiswarm_zenoh.programs.demo import Children
+from wiswarm_zenoh.programs.runners import ReadySignal, StopSignal
 
 from .helpers import WAIT
 

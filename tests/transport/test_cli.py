@@ -16,7 +16,7 @@ import pytest
 
 from wiswarm_zenoh.cli import main as cli_main
 from wiswarm_zenoh.cli import nodes
-from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
+from wiswarm_zenoh.programs.demo import DemoOptions, run_demo
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
 from .helpers import WAIT

@@ -11,9 +11,9 @@ import pytest
 import zenoh
 
 from wiswarm_zenoh.core import FollowerConfig, LeaderConfig
+from wiswarm_zenoh.programs.frames import SyntheticFrames
+from wiswarm_zenoh.programs.runners import FollowerOptions, run_child, run_follower
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
-from wiswarm_zenoh.transport.frames import SyntheticFrames
-from wiswarm_zenoh.transport.runners import FollowerOptions, run_child, run_follower
 
 from .helpers import WAIT, Recorder, Samples, Sessions, eventually
 

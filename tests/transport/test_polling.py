@@ -12,8 +12,8 @@ import pytest
 import zenoh
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, Waypoint
+from wiswarm_zenoh.programs.frames import SyntheticFrames
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode
-from wiswarm_zenoh.transport.frames import SyntheticFrames
 
 from .helpers import WAIT, Recorder, Sessions
 

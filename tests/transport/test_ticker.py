@@ -6,7 +6,7 @@ import threading
 
 import pytest
 
-from wiswarm_zenoh.transport.ticker import Ticker
+from wiswarm_zenoh.programs.ticker import Ticker
 
 from .helpers import WAIT
 

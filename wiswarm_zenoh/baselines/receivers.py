@@ -33,10 +33,10 @@ from wiswarm_zenoh.baselines.stamp import (
 )
 from wiswarm_zenoh.baselines.tally import FollowerTally
 from wiswarm_zenoh.core import AoITracker, WireError
+from wiswarm_zenoh.programs.runners import DeliveryRecord
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.runners import DeliveryRecord
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, to_json
 

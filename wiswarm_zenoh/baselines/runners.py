@@ -1,6 +1,6 @@
 """The push baselines as whole programs: what ``wiswarm follower|leader --system
 push|udp|tcp`` run in the foreground, and what experiments start as ``spawn`` children
-(through ``run_child``, like the polling nodes of ``wiswarm_zenoh.transport.runners``)."""
+(through ``run_child``, like the polling nodes of ``wiswarm_zenoh.programs.runners``)."""
 
 from __future__ import annotations
 
@@ -21,16 +21,16 @@ from wiswarm_zenoh.baselines.stamp import (
     sender_id,
     udp_frame_limit,
 )
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, SyntheticFrames
-from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch, RouterWatches
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_HEADER_BYTES, SyntheticFrames
+from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
+from wiswarm_zenoh.programs.runners import (
     DeliveryRecord,
     ReadySignal,
     StopSignal,
     wait_until_stopped,
 )
-from wiswarm_zenoh.transport.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)

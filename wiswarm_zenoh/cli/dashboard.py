@@ -22,7 +22,7 @@ from wiswarm_zenoh.options import (
     node_name,
     positive_float,
 )
-from wiswarm_zenoh.transport.runners import wait_until_stopped
+from wiswarm_zenoh.programs.runners import wait_until_stopped
 from wiswarm_zenoh.transport.zenoh_config import LOCAL_ROUTER, SessionSpec
 
 

@@ -9,6 +9,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from wiswarm_zenoh.experiments.edge_cloud_report import write_all
+from wiswarm_zenoh.experiments.edge_cloud_run import (
+    MAX_FOLLOWERS,
+    EdgeCloudConfig,
+    run_edge_cloud,
+)
+from wiswarm_zenoh.experiments.edge_cloud_topology import MAX_SITES, WanSpec
 from wiswarm_zenoh.options import (
     IN_FLIGHTS,
     RATE,
@@ -23,14 +30,7 @@ from wiswarm_zenoh.options import (
     show_written,
     writable_dir,
 )
-from wiswarm_zenoh.testbed.edge_cloud_report import write_all
-from wiswarm_zenoh.testbed.edge_cloud_run import (
-    MAX_FOLLOWERS,
-    EdgeCloudConfig,
-    run_edge_cloud,
-)
-from wiswarm_zenoh.testbed.edge_cloud_topology import MAX_SITES, WanSpec
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.units import format_rate
 
 # The fields a config names in its errors, as the flags the user wrote.

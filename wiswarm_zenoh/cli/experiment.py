@@ -15,6 +15,7 @@ from typing import Any
 
 from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, study_by_n
 from wiswarm_zenoh.experiments.sweep import PAPER_NS
+from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.options import (
     COUNTS,
@@ -35,8 +36,7 @@ from wiswarm_zenoh.options import (
     wifi_spec,
     writable_dir,
 )
-from wiswarm_zenoh.testbed.study import BASELINES, StudyConfig, run_study
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.units import format_rate
 
 

@@ -15,9 +15,9 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from wiswarm_zenoh.options import OneLineParser, UsageError
-from wiswarm_zenoh.transport.router_watch import NoRouterReached
-from wiswarm_zenoh.transport.runners import sigterm_as_ctrl_c
-from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
+from wiswarm_zenoh.programs.router_watch import NoRouterReached
+from wiswarm_zenoh.programs.runners import sigterm_as_ctrl_c
+from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 Registrar = Callable[[Any], None]  # adds its subcommands to ``subparsers``, each with ``func``
 

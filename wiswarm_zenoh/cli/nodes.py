@@ -18,6 +18,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from wiswarm_zenoh import Leader
 from wiswarm_zenoh.baselines import (
     CONGESTION,
     DEFAULT_BIND,
@@ -44,19 +45,18 @@ from wiswarm_zenoh.options import (
     writable_dir,
     writable_file,
 )
-from wiswarm_zenoh.security.checks import check_identity, check_swarm
-from wiswarm_zenoh.transport.demo import DemoOptions, run_demo
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
-from wiswarm_zenoh.transport.leader_node import LeaderNode
-from wiswarm_zenoh.transport.report import LiveTable, PollRates, format_table
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.demo import DemoOptions, run_demo
+from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_HEADER_BYTES, FRAME_RATE
+from wiswarm_zenoh.programs.report import LiveTable, PollRates, format_table
+from wiswarm_zenoh.programs.runners import (
     FollowerOptions,
     LeaderOptions,
     run_follower,
     run_leader,
     run_router,
 )
-from wiswarm_zenoh.transport.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.security.checks import check_identity, check_swarm
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
@@ -188,16 +188,16 @@ def _leader(args: argparse.Namespace) -> int:
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
 
-    def show(node: LeaderNode) -> None:
+    def show(node: Leader) -> None:
         summary = node.summary
-        for record in node.latest:
+        for record in node.stats:
             rates.observe(record.follower, record.polls, summary.uptime_s)
         header = f"{title}, {summary.polls_per_s:.0f} polls/s, up {summary.uptime_s:.0f} s"
-        table.show(format_table([r.as_dict() for r in node.latest], rates.rates, header))
+        table.show(format_table([r.as_dict() for r in node.stats], rates.rates, header))
 
     node = run_leader(spec, options, threading.Event(),
                       _Announce(f"{title}: waiting for followers (Ctrl-C to stop)"), show)
-    records = [r.as_dict() for r in node.latest]
+    records = [r.as_dict() for r in node.stats]
     print("\n".join(["", "summary", *format_table(records, rates.rates, title)]))
     return 0
 

@@ -22,9 +22,9 @@ from wiswarm_zenoh.options import (
     positive_float,
     writable_file,
 )
+from wiswarm_zenoh.programs.runners import wait_until_stopped
 from wiswarm_zenoh.recording import DEFAULT_HOST, DEFAULT_PORT, SwarmRecording
 from wiswarm_zenoh.ros2 import adapter
-from wiswarm_zenoh.transport.runners import wait_until_stopped
 from wiswarm_zenoh.transport.zenoh_config import LOCAL_ROUTER, SessionSpec
 
 

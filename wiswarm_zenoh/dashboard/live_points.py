@@ -31,10 +31,10 @@ import zenoh
 
 from wiswarm_zenoh.dashboard.feed import points_key
 from wiswarm_zenoh.experiments.sweep import Point, SweepConfig, summarise
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults
 from wiswarm_zenoh.experiments.testbed_study_report import summarise as summarise_study
 from wiswarm_zenoh.options import CONNECT_ENDPOINT
 from wiswarm_zenoh.sim.metrics import WifiResult
-from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.zenoh_config import LOCAL_ROUTER, SessionSpec
 

@@ -16,10 +16,10 @@ from wiswarm_zenoh.experiments.sweep_report import (
     write_runs_csv,
     write_summary_csv,
 )
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults
 from wiswarm_zenoh.sim.link import LinkParams, link_curve
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.testbed.run import failed_line
-from wiswarm_zenoh.testbed.study import StudyConfig, StudyResults
 from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)

@@ -20,7 +20,6 @@ from wiswarm_zenoh.testbed.spec import (
     check_available,
     unavailable_reason,
 )
-from wiswarm_zenoh.testbed.study import best_of_grid, share_fps
 from wiswarm_zenoh.testbed.user_channel import UserChannel, run_link
 from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
 
@@ -33,7 +32,6 @@ __all__ = [
     "UserChannel",
     "WifiMedium",
     "WifiSpec",
-    "best_of_grid",
     "check_available",
     "cleanup_leftovers",
     "enter",
@@ -42,6 +40,5 @@ __all__ = [
     "remove_channel",
     "run_in",
     "run_link",
-    "share_fps",
     "unavailable_reason",
 ]

@@ -34,21 +34,21 @@ from wiswarm_zenoh.baselines import (
 )
 from wiswarm_zenoh.core import AoITracker, LeaderConfig
 from wiswarm_zenoh.core.config import InFlight
-from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
-from wiswarm_zenoh.testbed.channel import Channel
-from wiswarm_zenoh.testbed.netns import run_in
-from wiswarm_zenoh.testbed.nodes import Placement
-from wiswarm_zenoh.testbed.reassembly import reassembly
-from wiswarm_zenoh.testbed.wifi import WifiMedium, window_counters
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.demo import Children
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
+from wiswarm_zenoh.programs.runners import (
     FollowerOptions,
     LeaderOptions,
     run_followers,
     run_leader,
     run_router,
 )
+from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
+from wiswarm_zenoh.testbed.channel import Channel
+from wiswarm_zenoh.testbed.netns import run_in
+from wiswarm_zenoh.testbed.nodes import Placement
+from wiswarm_zenoh.testbed.reassembly import reassembly
+from wiswarm_zenoh.testbed.wifi import WifiMedium, window_counters
 from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)

@@ -16,17 +16,12 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
+from wiswarm_zenoh.programs import ReadySignal, StopSignal, wait_until_stopped
 from wiswarm_zenoh.testbed.nodes import follower_spec, leader_spec, router_spec
 from wiswarm_zenoh.testbed.relay import DelayRelay
 from wiswarm_zenoh.testbed.shaper import SharedLink, describe
 from wiswarm_zenoh.testbed.spec import ChannelSpec
-from wiswarm_zenoh.transport import (
-    ReadySignal,
-    SessionSpec,
-    StopSignal,
-    free_tcp_port,
-    wait_until_stopped,
-)
+from wiswarm_zenoh.transport import SessionSpec, free_tcp_port
 
 LOCAL = "127.0.0.1"
 SEND_BUFFER = "transport/link/tcp/so_sndbuf:262144"

@@ -42,6 +42,7 @@ from wiswarm_apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh import Leader, LeaderConfig
 from wiswarm_zenoh.core import POLICIES
 from wiswarm_zenoh.dashboard import DEFAULT_PORT, Dashboard
+from wiswarm_zenoh.programs import Children, LiveTable, run_router, wait_until_stopped
 from wiswarm_zenoh.recording import DEFAULT_PORT as FOXGLOVE_PORT
 from wiswarm_zenoh.recording import SwarmRecording
 from wiswarm_zenoh.ros2 import Ros2Bridge, Ros2Options
@@ -56,14 +57,7 @@ from wiswarm_zenoh.testbed import (
     run_in,
     run_link,
 )
-from wiswarm_zenoh.transport import (
-    Children,
-    LiveTable,
-    SessionSpec,
-    free_tcp_port,
-    run_router,
-    wait_until_stopped,
-)
+from wiswarm_zenoh.transport import SessionSpec, free_tcp_port
 
 log = logging.getLogger(__name__)
 

@@ -21,6 +21,7 @@ from typing import Any
 
 from wiswarm_apps.tracking import demo
 from wiswarm_apps.tracking.report import summarise
+from wiswarm_zenoh.experiments import best_of_grid, share_fps
 from wiswarm_zenoh.options import (
     COUNTS,
     SEED,
@@ -35,7 +36,7 @@ from wiswarm_zenoh.options import (
     show_written,
     writable_dir,
 )
-from wiswarm_zenoh.testbed import ChannelSpec, best_of_grid, share_fps
+from wiswarm_zenoh.testbed import ChannelSpec
 
 SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
 COLUMNS = ("system", "n", "rate_hz", "mean_tracking_error_m", "p95_tracking_error_m",

@@ -37,17 +37,14 @@ from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, 
 from wiswarm_apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh import Follower, FollowerConfig, Waypoint
 from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
-from wiswarm_zenoh.transport import (
+from wiswarm_zenoh.programs import (
     SUPERVISION_PERIOD,
-    BadInputLog,
-    ControlListener,
     ReadySignal,
-    SessionSpec,
     StopSignal,
-    SwarmKeys,
     Ticker,
     wait_until_stopped,
 )
+from wiswarm_zenoh.transport import BadInputLog, ControlListener, SessionSpec, SwarmKeys
 
 log = logging.getLogger(__name__)
 

@@ -30,9 +30,8 @@ from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.core.config import InFlight
-from wiswarm_zenoh.sim.metrics import FollowerMetrics
-from wiswarm_zenoh.testbed.edge_cloud_nodes import LeadersOptions, run_leaders, run_relays
-from wiswarm_zenoh.testbed.edge_cloud_topology import (
+from wiswarm_zenoh.experiments.edge_cloud_nodes import LeadersOptions, run_leaders, run_relays
+from wiswarm_zenoh.experiments.edge_cloud_topology import (
     MAX_SITES,
     EdgeCloud,
     Site,
@@ -40,13 +39,14 @@ from wiswarm_zenoh.testbed.edge_cloud_topology import (
     client_of_local_router,
     cloud_router,
 )
+from wiswarm_zenoh.experiments.testbed_study import FRAME_OVERHEAD
+from wiswarm_zenoh.programs.demo import Children
+from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_HEADER_BYTES
+from wiswarm_zenoh.programs.runners import FollowerOptions, run_followers, run_router
+from wiswarm_zenoh.sim.metrics import FollowerMetrics
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.run import ending, read_record, window_metrics
 from wiswarm_zenoh.testbed.spec import ChannelSpec
-from wiswarm_zenoh.testbed.study import FRAME_OVERHEAD
-from wiswarm_zenoh.transport.demo import Children
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_HEADER_BYTES
-from wiswarm_zenoh.transport.runners import FollowerOptions, run_followers, run_router
 
 log = logging.getLogger(__name__)
 

@@ -23,7 +23,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from wiswarm_zenoh.testbed.edge_cloud_run import EdgeCloudResults, SetupResult
+from wiswarm_zenoh.experiments.edge_cloud_run import EdgeCloudResults, SetupResult
 from wiswarm_zenoh.testbed.run import failed_line
 from wiswarm_zenoh.units import format_rate
 

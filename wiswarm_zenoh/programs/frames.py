@@ -6,7 +6,7 @@ import struct
 import time
 from collections.abc import Callable
 
-from wiswarm_zenoh.transport.ticker import Ticker
+from wiswarm_zenoh.programs.ticker import Ticker
 
 FRAME_BYTES = 224 * 224  # one grayscale 224x224 frame, as in the paper's stationary runs
 FRAME_RATE = 100.0

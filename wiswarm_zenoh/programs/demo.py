@@ -26,10 +26,8 @@ from typing import Any, TextIO
 import zenoh
 
 from wiswarm_zenoh.core import FollowerConfig, LeaderConfig
-from wiswarm_zenoh.transport.entities import undeclare
-from wiswarm_zenoh.transport.frames import FRAME_BYTES, FRAME_RATE
-from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.report import (
+from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_RATE
+from wiswarm_zenoh.programs.report import (
     LiveTable,
     PollRates,
     format_table,
@@ -37,7 +35,7 @@ from wiswarm_zenoh.transport.report import (
     read_deliveries,
     write_stats_csv,
 )
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.programs.runners import (
     FollowerOptions,
     LeaderOptions,
     run_child,
@@ -46,6 +44,8 @@ from wiswarm_zenoh.transport.runners import (
     run_router,
     sigterm_as_ctrl_c,
 )
+from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
 log = logging.getLogger(__name__)

@@ -19,17 +19,17 @@ from dataclasses import dataclass
 
 from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.config import InFlight
-from wiswarm_zenoh.testbed.edge_cloud_topology import RelaySpec
-from wiswarm_zenoh.testbed.relay import DelayRelay
-from wiswarm_zenoh.transport.edge import Upstream
-from wiswarm_zenoh.transport.frames import capture_time
-from wiswarm_zenoh.transport.leader_node import LeaderNode
-from wiswarm_zenoh.transport.runners import (
+from wiswarm_zenoh.experiments.edge_cloud_topology import RelaySpec
+from wiswarm_zenoh.programs.frames import capture_time
+from wiswarm_zenoh.programs.runners import (
     DeliveryRecord,
     ReadySignal,
     StopSignal,
     wait_until_stopped,
 )
+from wiswarm_zenoh.testbed.relay import DelayRelay
+from wiswarm_zenoh.transport.edge import Upstream
+from wiswarm_zenoh.transport.leader_node import LeaderNode
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)

@@ -15,7 +15,7 @@ import threading
 
 import zenoh
 
-from wiswarm_zenoh.transport.acl_log import DenialFilter
+from wiswarm_zenoh.programs.acl_log import DenialFilter
 
 LOG_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"  # ours, every process
 ACCESS_CONTROL = "zenoh::net::routing::interceptor::access_control"

@@ -22,20 +22,20 @@ from typing import Any, Protocol
 
 import zenoh
 
+from wiswarm_zenoh.api.follower import Follower
+from wiswarm_zenoh.api.leader import Leader
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
-from wiswarm_zenoh.transport.bridge import BridgeOptions
-from wiswarm_zenoh.transport.edge import Upstream
-from wiswarm_zenoh.transport.follower_node import FollowerNode
-from wiswarm_zenoh.transport.frames import (
+from wiswarm_zenoh.programs.frames import (
     FRAME_BYTES,
     FRAME_RATE,
     SyntheticFrames,
     capture_time,
 )
-from wiswarm_zenoh.transport.leader_node import LeaderNode
-from wiswarm_zenoh.transport.router_watch import NoRouterReached, RouterWatch, RouterWatches
+from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
+from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
+from wiswarm_zenoh.transport.bridge import BridgeOptions
+from wiswarm_zenoh.transport.edge import Upstream
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
-from wiswarm_zenoh.transport.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 log = logging.getLogger(__name__)
 
@@ -177,7 +177,7 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
             session = stack.enter_context(spec.open())
             watches.add(session, f"follower {option.follower_id}")
             node = stack.enter_context(
-                FollowerNode(session, option.swarm, option.follower_id, option.config))
+                Follower(session, option.swarm, option.follower_id, config=option.config))
             feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
                                                         option.frame_rate)))
         for _, _, frames in feeds:
@@ -244,7 +244,7 @@ class LeaderOptions:
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                ready: ReadySignal | None = None,
-               show: Callable[[LeaderNode], None] | None = None) -> LeaderNode:
+               show: Callable[[Leader], None] | None = None) -> Leader:
     """The leader until stopped; ``show`` is called with the node a few times a second.
     Returns the (closed) node, whose last stats remain readable; ``NoRouterReached``
     instead if it never reached the router it was pointed at."""
@@ -260,9 +260,9 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 for each in hand_on:
                     each(event)
 
-            node = LeaderNode(
-                session, options.swarm, options.config,
-                on_delivery=on_delivery if hand_on else None,
+            node = Leader(
+                session, options.swarm, on_delivery if hand_on else None,
+                config=options.config,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
@@ -274,7 +274,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
-                 "followers": [stats.as_dict() for stats in node.latest]}, indent=1))
+                 "followers": [stats.as_dict() for stats in node.stats]}, indent=1))
     finally:
         if record is not None:
             record.close()
@@ -296,9 +296,9 @@ def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream |
         upstream.close()
 
 
-def _lead(node: LeaderNode, session: zenoh.Session, endpoints: Sequence[str],
+def _lead(node: Leader, session: zenoh.Session, endpoints: Sequence[str],
           options: LeaderOptions, stop: StopSignal, ready: ReadySignal | None,
-          show: Callable[[LeaderNode], None] | None) -> bool:
+          show: Callable[[Leader], None] | None) -> bool:
     """Run ``node`` until stopped; ``show`` it a few times a second. False if it never
     reached the router at ``endpoints`` (said in one line)."""
     with node:

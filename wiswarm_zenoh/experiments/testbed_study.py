@@ -34,6 +34,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.sweep import PAPER_NS, PAPER_RATES, check_study
+from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import (
     SYSTEMS,
@@ -44,7 +45,6 @@ from wiswarm_zenoh.testbed.run import (
 )
 from wiswarm_zenoh.testbed.spec import ChannelSpec
 from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
-from wiswarm_zenoh.transport.frames import FRAME_BYTES
 
 log = logging.getLogger(__name__)
 
