@@ -20,6 +20,7 @@ from wiswarm_zenoh.programs.runners import sigterm_as_ctrl_c
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
 
 Registrar = Callable[[Any], None]  # adds its subcommands to ``subparsers``, each with ``func``
+NODE_COMMANDS = ("router", "leader", "follower")  # registered by ``cli.nodes``
 
 
 def every_command() -> tuple[Registrar, ...]:
@@ -37,6 +38,17 @@ def every_command() -> tuple[Registrar, ...]:
     )
     return (nodes.register, sim.register, testbed.register, experiment.register,
             security.register, dashboard.register, recording.register, tracking.register)
+
+
+def commands_for(argv: Sequence[str]) -> tuple[Registrar, ...]:
+    """The commands to build a parser of for ``argv``: a node (router, leader, follower:
+    what a robot runs, on a small computer) gets its own alone, so that it loads what
+    nodes need and not the tracking app, the dashboard or ROS 2; anything else all."""
+    command = next((arg for arg in argv if not arg.startswith("-")), None)
+    if command in NODE_COMMANDS:
+        from wiswarm_zenoh.cli import nodes
+        return (nodes.register,)
+    return every_command()
 
 
 def build_parser(registrars: Sequence[Registrar] | None = None) -> argparse.ArgumentParser:
@@ -60,7 +72,8 @@ def build_parser(registrars: Sequence[Registrar] | None = None) -> argparse.Argu
 def main(argv: Sequence[str] | None = None,
          registrars: Sequence[Registrar] | None = None) -> int:
     """Run one command (``argv``, default the process's); its exit code."""
-    parser = build_parser(registrars)
+    argv = sys.argv[1:] if argv is None else argv
+    parser = build_parser(commands_for(argv) if registrars is None else registrars)
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help (0), or a bad flag: its one line is written

@@ -20,7 +20,6 @@ from typing import Generic, TypeVar
 from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.core.in_flight import MOST as MOST_IN_FLIGHT
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES
-from wiswarm_zenoh.experiments.sweep import PAPER_RATES
 from wiswarm_zenoh.transport.keys import check_follower, check_name
 from wiswarm_zenoh.transport.zenoh_config import (
     PROTOCOLS,
@@ -289,6 +288,8 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -
 def add_rate_grid(parser: argparse.ArgumentParser, whose: str) -> None:
     """``--rates`` (the grid a baseline's best rate is searched on) and ``--fixed-rate``,
     as every study takes them; ``whose``: "the baselines'", "push's"."""
+    from wiswarm_zenoh.experiments.sweep import PAPER_RATES  # what nodes never load
+
     parser.add_argument("--rates", type=FRAME_RATES, default=PAPER_RATES,
                         help=f"{whose} rate grid for the best rate, fps (default the paper's)")
     parser.add_argument("--fixed-rate", type=positive_float(), default=50.0,

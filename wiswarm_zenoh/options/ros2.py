@@ -4,14 +4,19 @@ what it takes, refused in one line before anything starts."""
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 from wiswarm_zenoh.options.arguments import ArgType, integer, positive_float
-from wiswarm_zenoh.ros2 import Ros2Options, adapter, adapter_names
 from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_namespace
 from wiswarm_zenoh.usage import UsageError
 
+if TYPE_CHECKING:  # the ROS 2 side (its message types) is loaded when --ros2 is given
+    from wiswarm_zenoh.ros2 import Ros2Options
+
 
 def _adapter_name(text: str) -> str:
+    from wiswarm_zenoh.ros2 import adapter
+
     adapter(text)  # ValueError naming the registered ones
     return text
 
@@ -40,9 +45,9 @@ def add_ros2_arguments(parser: argparse.ArgumentParser, updates: bool = True,
         return
     parser.add_argument("--ros-updates", metavar="ADAPTER", type=UPDATE_ADAPTER,
                         help="with --ros2: how updates become messages: bytes "
-                        "(std_msgs/msg/UInt8MultiArray, the default) or an application's "
-                        f"adapter ({', '.join(adapter_names())} ...; tracking: "
-                        "sensor_msgs/msg/Image and geometry_msgs/msg/PoseStamped)")
+                        "(std_msgs/msg/UInt8MultiArray, the default) or the name of an "
+                        "application's adapter (tracking: sensor_msgs/msg/Image and "
+                        "geometry_msgs/msg/PoseStamped)")
     parser.add_argument("--ros-max-rate", metavar="HZ", type=positive_float(),
                         help="with --ros2: send each follower's updates at most this often, "
                         "the first delivered once 1/HZ has passed (default: every delivery; "
@@ -57,6 +62,8 @@ def ros2_options(args: argparse.Namespace) -> Ros2Options | None:
         if given:
             raise UsageError(f"--{given[0].replace('_', '-')} is for --ros2: add --ros2")
         return None
+    from wiswarm_zenoh.ros2 import Ros2Options, adapter
+
     return Ros2Options(domain=args.ros_domain or 0, namespace=args.ros_namespace,
                        adapter=None if getattr(args, "ros_updates", None) is None
                        else adapter(args.ros_updates),

@@ -7,8 +7,10 @@ from __future__ import annotations
 import re
 import struct
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from wiswarm_zenoh.ros2.messages import RosType
+if TYPE_CHECKING:  # names only: checking a namespace loads no message types
+    from wiswarm_zenoh.ros2.messages import RosType
 
 ADMIN_SPACE = "@ros2_lv"
 MAX_DOMAIN = 232  # ROS_DOMAIN_ID's range

@@ -10,14 +10,14 @@ from __future__ import annotations
 import datetime
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import zenoh
-from cryptography import x509
-from cryptography.exceptions import InvalidSignature
-from cryptography.hazmat.primitives import serialization
 
-from wiswarm_zenoh.security.pki import common_name
 from wiswarm_zenoh.usage import UsageError
+
+if TYPE_CHECKING:  # cryptography is loaded when a certificate is read, not by every node
+    from cryptography import x509
 
 TLS = "transport/link/tls"
 CA = "root_ca_certificate"
@@ -34,6 +34,8 @@ def _read(path: str, what: str) -> bytes:
 
 def _certificate(path: str, what: str) -> x509.Certificate:
     """A PEM certificate valid now."""
+    from cryptography import x509
+
     try:
         cert = x509.load_pem_x509_certificate(_read(path, what))
     except ValueError:
@@ -49,6 +51,8 @@ def _certificate(path: str, what: str) -> x509.Certificate:
 
 
 def _check_key(path: str, cert: x509.Certificate, cert_path: str) -> None:
+    from cryptography.hazmat.primitives import serialization
+
     try:
         key = serialization.load_pem_private_key(_read(path, "private key"), None)
     except (ValueError, TypeError):
@@ -60,6 +64,8 @@ def _check_key(path: str, cert: x509.Certificate, cert_path: str) -> None:
 
 def _check_signed(cert: x509.Certificate, path: str, ca: x509.Certificate,
                   ca_path: str) -> None:
+    from cryptography.exceptions import InvalidSignature
+
     try:
         cert.verify_directly_issued_by(ca)
     except (ValueError, TypeError, InvalidSignature):
@@ -104,6 +110,8 @@ def check_identity(config_file: str | None, name: str) -> None:
     except zenoh.ZError:
         return  # the session's own config checks report it, with Zenoh's words
     cert = check_tls(config).get("connect_certificate")
+    from wiswarm_zenoh.security.pki import common_name
+
     if cert is not None and common_name(cert) != name:
         path = tls_files(config)["connect_certificate"]
         raise UsageError(f"certificate {path} (in {config_file}) is {common_name(cert)!r}'s, "
