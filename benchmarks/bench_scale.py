@@ -60,6 +60,7 @@ from wiswarm_zenoh.programs.runners import (
     wait_until_stopped,
 )
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
+from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 SWARM = "bench"
@@ -230,16 +231,18 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             polled = time.perf_counter() - start
             rss_joined = rss_bytes() - rss0
             time.sleep(args.warmup)
-            t0, polls0, timeouts0 = time.time(), node.polls, timeouts(node)
+            timeouts0 = timeouts(node, session)  # before the window: the records cost CPU
+            t0, polls0 = time.time(), node.polls
             cpu0, thread0 = process_cpu(), thread_cpu(poll_thread.native_id)
             machine0 = machine_busy()
             pauses = Pauses()
             time.sleep(seconds)
             pauses.close()
-            t1, polls1, timeouts1 = time.time(), node.polls, timeouts(node)
+            t1, polls1 = time.time(), node.polls
             cpu1, thread1 = process_cpu(), thread_cpu(poll_thread.native_id)
             machine1 = machine_busy()
             rss_end = rss_bytes() - rss0
+            timeouts1 = timeouts(node, session)  # after it
     counts, means = window_figures(watch, followers, t0, t1)
     return joined, polled, rss_joined, rss_end, Window(
         t1 - t0, polls1 - polls0, cpu1 - cpu0, machine1 - machine0, thread1 - thread0,
@@ -247,8 +250,15 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
         timeouts1 - timeouts0, pauses)
 
 
-def timeouts(node: LeaderNode) -> int:
-    return sum(record.timeouts for record in node.latest)
+def timeouts(node: LeaderNode, session: zenoh.Session) -> int:
+    """Unanswered polls so far, from the followers' stats records: made only while a
+    subscriber matches, so one is declared for a few rounds outside the window."""
+    subscriber = session.declare_subscriber(f"wiswarm/{SWARM}/*/stats", lambda sample: None)
+    try:
+        time.sleep(3 * STATS_PERIOD)
+        return sum(record.timeouts for record in node.latest)
+    finally:
+        subscriber.undeclare()
 
 
 def bare_rate(spec: SessionSpec, followers: list[str], seconds: float,
