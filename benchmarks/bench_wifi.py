@@ -27,7 +27,8 @@ from wiswarm_zenoh.options import ProgressBar
 from wiswarm_zenoh.testbed import TestbedUnavailable, check_available
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.run import RunSpec, measure
-from wiswarm_zenoh.testbed.wifi import MediumFailed, WifiMedium, WifiSpec
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_spec import MediumFailed, WifiSpec
 
 LOADS = (("wiswarm", 100.0), ("push-block", 50.0))
 

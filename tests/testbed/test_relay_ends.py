@@ -17,13 +17,8 @@ from concurrent.futures import Future, ThreadPoolExecutor
 
 import pytest
 
-from wiswarm_zenoh.testbed.relay import (
-    CHUNK,
-    DEFAULT_MAX_LAG,
-    DelayRelay,
-    build_parser,
-    main,
-)
+from wiswarm_zenoh.testbed.relay import CHUNK, DEFAULT_MAX_LAG, DelayRelay
+from wiswarm_zenoh.testbed.relay_cli import build_parser, main
 
 from .relay_helpers import (
     DELAY,

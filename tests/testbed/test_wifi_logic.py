@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from wiswarm_zenoh.testbed.wifi import MediumStats, WifiSpec, window_counters
+from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec, window_counters
 
 
 @pytest.mark.parametrize(("fields", "named"), [

@@ -30,13 +30,8 @@ from wiswarm_zenoh.testbed import (
 )
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
 from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
-from wiswarm_zenoh.testbed.wifi import (
-    MediumStats,
-    WifiMedium,
-    WifiSpec,
-    list_media,
-    remove_medium,
-)
+from wiswarm_zenoh.testbed.wifi import WifiMedium, list_media, remove_medium
+from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec
 from wiswarm_zenoh.units import format_rate
 
 

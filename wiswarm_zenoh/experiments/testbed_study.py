@@ -44,7 +44,8 @@ from wiswarm_zenoh.testbed.run import (
     measure,
 )
 from wiswarm_zenoh.testbed.spec import ChannelSpec
-from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_spec import WifiSpec
 
 log = logging.getLogger(__name__)
 

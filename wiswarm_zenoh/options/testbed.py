@@ -9,7 +9,7 @@ import re
 
 from wiswarm_zenoh.options.arguments import RATE, TIME, ArgType, positive_int
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, TestbedUnavailable, check_available
-from wiswarm_zenoh.testbed.wifi import MAX_STATIONS, STANDARDS, WifiSpec
+from wiswarm_zenoh.testbed.wifi_spec import MAX_STATIONS, STANDARDS, WifiSpec
 from wiswarm_zenoh.usage import UsageError
 
 _SIZE = re.compile(r"^\s*([0-9]+)\s*(b|k|kb|m|mb)?\s*$", re.IGNORECASE)

@@ -21,7 +21,8 @@ from wiswarm_zenoh.testbed.spec import (
     unavailable_reason,
 )
 from wiswarm_zenoh.testbed.user_channel import UserChannel, run_link
-from wiswarm_zenoh.testbed.wifi import WifiMedium, WifiSpec
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_spec import WifiSpec
 
 __all__ = [
     "Channel",

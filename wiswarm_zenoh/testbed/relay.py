@@ -26,24 +26,20 @@ A target that cannot be reached resets (and logs) the accepted connection. Stand
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import dataclasses
 import functools
 import logging
 import math
-import signal
 import socket
 import struct
 import sys
 import threading
 import time
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 from wiswarm_zenoh.testbed.shaper import Shaper, SharedLink
-from wiswarm_zenoh.units import parse_seconds
-from wiswarm_zenoh.usage import OneLineParser
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +50,6 @@ DEFAULT_MAX_LAG = 0.002
 LATE = 0.001  # a chunk written later than this after its due time counts as late
 CONNECT_TIMEOUT = 10.0  # s, to reach the target
 _LINGER_RESET = struct.pack("ii", 1, 0)  # close() then sends a RST, not a FIN
-PROG = "python -m wiswarm_zenoh.testbed.relay"
 
 
 @dataclasses.dataclass
@@ -72,7 +67,8 @@ class RelayCounters:
     peak_held_bytes: int = 0  # the most one direction of one connection held at once
 
 
-def _name(address: Address) -> str:
+def address_text(address: Address) -> str:
+    """``host:port`` (``[v6]:port``), for logs."""
     return f"[{address[0]}]:{address[1]}" if ":" in address[0] else f"{address[0]}:{address[1]}"
 
 
@@ -169,7 +165,7 @@ class _Connection:
         up, down = (None, None) if relay.link is None else (relay.link.up, relay.link.down)
         self.pipes = (_Pipe(self, client, upstream, True, relay.delay, up),
                       _Pipe(self, upstream, client, False, relay.delay_back, down))
-        self.name = f"{_name(peer)} -> {_name(relay.target)}"
+        self.name = f"{address_text(peer)} -> {address_text(relay.target)}"
         self.aborted, self._lock, self._running = False, threading.Lock(), 4  # threads
 
     def start(self) -> None:
@@ -258,8 +254,9 @@ class DelayRelay:
             self.link.start()
         with self._lock:
             self._spawn(f"delay-relay accept :{self.port}", self._accept_loop)
-        log.info("relay listening on %s, to %s, %g/%g ms", _name((self.listen[0], self.port)),
-                 _name(self.target), self.delay * 1e3, self.delay_back * 1e3)
+        log.info("relay listening on %s, to %s, %g/%g ms",
+                 address_text((self.listen[0], self.port)), address_text(self.target),
+                 self.delay * 1e3, self.delay_back * 1e3)
         return self
 
     def stop(self) -> None:
@@ -310,7 +307,7 @@ class DelayRelay:
                     client.close()
                     return
                 self._counters.connections += 1
-                self._spawn(f"delay-relay connect {_name(peer)}",
+                self._spawn(f"delay-relay connect {address_text(peer)}",
                             functools.partial(self._connect, client, peer))
 
     def _connect(self, client: socket.socket, peer: Address) -> None:
@@ -319,8 +316,8 @@ class DelayRelay:
             upstream = socket.create_connection(self.target, timeout=CONNECT_TIMEOUT)
         except OSError as exc:
             log.warning("relay %s -> %s: cannot reach the target (%s): closing the "
-                        "connection from %s", _name((self.listen[0], self.port)),
-                        _name(self.target), exc, _name(peer))
+                        "connection from %s", address_text((self.listen[0], self.port)),
+                        address_text(self.target), exc, address_text(peer))
             self._note(unreachable=1)
             client.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _LINGER_RESET)
             client.close()  # with a RST: the peer must not take it for a clean end
@@ -348,71 +345,7 @@ class DelayRelay:
                 setattr(self._counters, name, max(old, value) if top else old + value)
 
 
-def parse_address(text: str, lowest_port: int = 1) -> Address:
-    """``HOST:PORT`` (``[V6]:PORT`` too) -> (host, port); ValueError if it is malformed
-    or the host does not resolve."""
-    host, _, port = text.rpartition(":")
-    host = host[1:-1] if host[:1] == "[" and host[-1:] == "]" else host
-    if not (host and port.isdigit() and lowest_port <= int(port) <= 65535) or "[" in host:
-        raise ValueError(f"{text[:60]!r} must be HOST:PORT, PORT in [{lowest_port}, 65535]")
-    try:
-        socket.getaddrinfo(host, int(port), type=socket.SOCK_STREAM)
-    except (OSError, UnicodeError) as exc:
-        raise ValueError(f"host {host[:60]!r} does not resolve: {exc}") from None
-    return host, int(port)
+if __name__ == "__main__":  # as a standalone process: relay_cli's command line
+    from wiswarm_zenoh.testbed.relay_cli import main
 
-
-def _arg(parse: Callable[[str], object]) -> Callable[[str], object]:
-    """An argparse type whose ValueError message is the one line shown."""
-    def convert(text: str) -> object:
-        try:
-            return parse(text)
-        except ValueError as exc:
-            raise argparse.ArgumentTypeError(str(exc)) from None
-    return convert
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = OneLineParser(prog=PROG, description=__doc__.split("\n\n")[0])
-    add = parser.add_argument
-    add("--listen", required=True, metavar="HOST:PORT", help="accept here (port 0: any)",
-        type=_arg(functools.partial(parse_address, lowest_port=0)))
-    add("--target", required=True, metavar="HOST:PORT", type=_arg(parse_address),
-        help="relay to here")
-    add("--delay", required=True, type=_arg(parse_seconds), help="one way: 20ms, 0.02 (s)")
-    add("--delay-back", type=_arg(parse_seconds), help="target -> listen side (default: --delay)")
-    add("-v", "--verbose", action="count", default=0, help="log connections (-vv: more)")
-    return parser
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """Relay until SIGINT/SIGTERM. The first line on stdout names the address bound; a
-    bad flag, or an address that cannot be bound, is one line on stderr, exit 2."""
-    try:
-        args = build_parser().parse_args(argv)
-    except SystemExit as exc:
-        return exc.code if isinstance(exc.code, int) else 2
-    logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2))
-    relay = DelayRelay(args.listen, args.target, args.delay, delay_back=args.delay_back)
-    try:
-        relay.start()
-    except OSError as exc:
-        print(f"{PROG}: error: cannot listen on {_name(args.listen)}: "
-              f"{exc.strerror or exc}", file=sys.stderr)
-        return 2
-    stop = threading.Event()
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.set())
-    print(f"listening on {_name((args.listen[0], relay.port))}, relaying to {_name(args.target)}"
-          f" {relay.delay * 1e3:g} ms late there, {relay.delay_back * 1e3:g} ms back", flush=True)
-    stop.wait()  # SIGINT too sets it: no KeyboardInterrupt comes
-    relay.stop()
-    c = relay.counters()
-    print(f"relayed {c.to_target_bytes} bytes to the target and {c.from_target_bytes} back "
-          f"over {c.connections} connections ({c.unreachable} could not reach it); latest "
-          f"write {c.max_lateness_s * 1e3:.3f} ms after due", file=sys.stderr)
-    return 0
-
-
-if __name__ == "__main__":
     sys.exit(main())

@@ -48,7 +48,8 @@ from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.reassembly import reassembly
-from wiswarm_zenoh.testbed.wifi import WifiMedium, window_counters
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_spec import window_counters
 from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)
