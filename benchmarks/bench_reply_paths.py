@@ -15,6 +15,8 @@ the leader's poll loop can be built on the fastest:
       an older get, and sends the next get.
   B2  As B, without the drop callback: a get that never answers is caught by the
       timeout of ``inbox.get``.
+  B3  As B, but the drop callback posts only for a get that brought no ok reply (the
+      only end that is news): the leader's path.
   C   No thread hop at all: the reply callback (indirect=False, on Zenoh's thread)
       itself calls the next querier's ``get`` with a new callback; the drop callback
       moves the chain on when a get closed without an ok reply. The main thread only
@@ -118,6 +120,8 @@ VARIANTS = {
                 lambda q, t: QueuePoller(q, t, drop=True, indirect=False)),
         Variant("B2", "Callback direct, no drop -> SimpleQueue",
                 lambda q, t: QueuePoller(q, t, drop=False, indirect=False)),
+        Variant("B3", "Callback direct + drop only without an ok reply -> SimpleQueue",
+                lambda q, t: QueuePoller(q, t, drop=True, indirect=False, quiet_drop=True)),
         Variant("C", "next get from the reply callback + drop", ChainPoller),
         Variant("C2", "next get from the reply callback, no drop",
                 lambda q, t: ChainPoller(q, t, drop=False)),

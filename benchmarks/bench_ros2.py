@@ -168,7 +168,7 @@ def run_round(session: zenoh.Session, spec: SessionSpec, n: int, args: argparse.
 
     subscriber = SubscriberProcess(spec) if kind.subscribed else None
     start = time.process_time()
-    rate, stats, _ = leader_round(session, n, args.seconds, LeaderConfig(), 0.1,
+    rate, stats, _ = leader_round(session, n, args.seconds, LeaderConfig(),
                                   bridge=kind.bridge, on_delivery=on_delivery)
     kind.rates.append(rate)
     kind.cpu.append((time.process_time() - start) / sum(int(s["polls"]) for s in stats))
@@ -231,7 +231,7 @@ def record(session: zenoh.Session, spec: SessionSpec, n: int, args: argparse.Nam
         recording = SwarmRecording(watcher, SWARM, mcap=path)
         batches = LastBatch(watcher)  # on the recording's session: it hears the same
         start = time.perf_counter()
-        rate = leader_round(session, n, args.record_seconds, LeaderConfig(), 0.1,
+        rate = leader_round(session, n, args.record_seconds, LeaderConfig(),
                             on_delivery=lambda e: made.append((e.follower, e.delivered_at)))[0]
         if not batches.wait_for(made[-1][1]):
             print("  the leader's last batch of deliveries never came")

@@ -66,32 +66,38 @@ class FifoPoller(Poller):
 
 
 class QueuePoller(Poller):
-    """B, B2, D: a callback puts (tag, reply) into a SimpleQueue the poll thread reads;
-    with ``drop``, (tag, None) follows when the get closes."""
+    """B, B2, B3, D: a callback puts (tag, reply) into a SimpleQueue the poll thread
+    reads; with ``drop``, (tag, None) follows when the get closes (with ``quiet_drop``:
+    only for a get that brought no ok reply, the only one whose end is news)."""
 
     def __init__(self, queriers: Sequence[zenoh.Querier], timeout: float, *, drop: bool,
-                 indirect: bool) -> None:
+                 indirect: bool, quiet_drop: bool = False) -> None:
         super().__init__(queriers, timeout)
         self.drop = drop
         self.indirect = indirect
+        self.quiet_drop = quiet_drop
 
     def loop(self) -> None:
         queriers, n = self.queriers, len(self.queriers)
         inbox: queue.SimpleQueue[tuple[int, zenoh.Reply | None]] = queue.SimpleQueue()
         put, take = inbox.put, inbox.get
         wait = self.timeout + 0.2  # a get that never closes (no drop callback: B2)
-        drop, indirect = self.drop, self.indirect
+        drop, indirect, quiet = self.drop, self.indirect, self.quiet_drop
         callback = zenoh.handlers.Callback
+        answered = [-1]  # the last tag an ok reply came for (written on Zenoh's thread)
         k = 0
         while self.running:
             tag = k
 
             def on_reply(reply: zenoh.Reply, tag: int = tag) -> None:
+                if reply.ok is not None:
+                    answered[0] = tag
                 put((tag, reply))
 
             if drop:
                 def on_drop(tag: int = tag) -> None:
-                    put((tag, None))
+                    if not quiet or answered[0] != tag:
+                        put((tag, None))
 
                 handler = callback(on_reply, on_drop, indirect=indirect)
             else:

@@ -377,9 +377,12 @@ class Leader:
             control, self._control_due, self._control_sent_at = self._packed_control, False, now
             self._control_seq += 1
         poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
+        timing = peer.timing
+        steady = not self._flights and self.polls_allowed == 1 and timing.unanswered == 0 \
+            and timing.measured and not peer.silent
         request = PollRequest(
-            follower, self._poll_seq, encode_poll(poll), now + peer.timing.timeout, now,
-            self._control_seq, control, self.epoch,
+            follower, self._poll_seq, encode_poll(poll), now + timing.timeout, now,
+            self._control_seq, control, self.epoch, steady,
         )
         self._flights[follower] = Flight(request, peer)
         return request

@@ -18,6 +18,12 @@ class PollRequest:
     alongside when the control information is due (``LeaderConfig.control_period``);
     None when it is not.
 
+    ``steady``: it is the only poll out, to a follower that answered its polls in time
+    so far; the shell may then wait on this request's own replies alone and end the
+    request at its ``deadline`` (a later reply would only lengthen a timeout that has
+    held). Any other request stays open past its deadline, so that a late reply still
+    teaches (``poll_timing``).
+
     The control message is encoded when asked for, once per request. (Not frozen, as
     the wire messages: one is made per poll.)
     """
@@ -30,6 +36,7 @@ class PollRequest:
     control_seq: int
     packed_entries: bytes | None  # the control's entries, when it is due with this poll
     epoch: int
+    steady: bool = False
 
     @property
     def control(self) -> bytes | None:

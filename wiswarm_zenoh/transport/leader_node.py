@@ -33,6 +33,7 @@ from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
 from wiswarm_zenoh.transport.outlets import Outlets
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD, StatsRounds
+from wiswarm_zenoh.transport.steady_gets import SteadyGets
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
 
 log = logging.getLogger(__name__)
@@ -92,6 +93,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
                                 on_delivery, clock, lambda f: not self._stop.is_set() and
                                 f in self._membership.followers)
+        self._steady = self._outlets.steady = SteadyGets(
+            self._leader, clock, self._reply, self._end, f"leader-{swarm}-deadlines")
         self.bridge = self._outlets.bridge = \
             None if bridge is None else bridge.open(session, swarm, self)
         self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
@@ -150,6 +153,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         """Stop polling (waits for the poll in flight) and undeclare everything."""
         self._stop.set()
         self._inbox.put(None)
+        self._steady.close()  # lets go of a get the poll thread waits on
         self._thread.join()
         if self.bridge is not None:
             self.bridge.close()
@@ -170,14 +174,20 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                 if self._role.changed:
                     self._role.take(self._clock())
                 now = self._clock()
+                steady = None
                 while self._role.active and (request := leader.next_poll(now)) is not None:
-                    self._outlets.send(request)  # one, or up to ``in_flight``
+                    steady = self._outlets.send(request)  # one, or up to ``in_flight``
                 self._hand_on()
                 now, deliveries = self._clock(), self._outlets.deliveries
                 if now >= self._stats.due:  # while the poll just sent is on its way
                     self._publish_stats(now)
                 if now >= deliveries.due:
                     deliveries.flush()
+                self._steady.sweep(now)
+                if steady is not None:  # the only poll out: wait on its own channel
+                    self._take_commands()
+                    self._steady.wait(steady)
+                    continue
                 timer = leader.get_timer()
                 wake_at = min(self._stats.due, deliveries.due, math.inf if timer is None else timer)
                 try:
@@ -190,6 +200,14 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                     leader.handle_timer(self._clock())
         finally:
             self._hand_on()
+
+    def _take_commands(self) -> None:
+        """What the inbox holds now, without waiting."""
+        inbox = self._inbox
+        while not inbox.empty():
+            command = inbox.get_nowait()
+            if command is not None:
+                command()
 
     def _hand_on(self) -> None:  # the core's events
         while (event := self._leader.next_event()) is not None:

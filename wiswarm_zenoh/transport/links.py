@@ -91,6 +91,13 @@ class FollowerLink:
                                           indirect=False)
         self.querier.get(handler, payload=payload)
 
+    def poll_steady(self, payload: bytes,
+                    token: zenoh.CancellationToken) -> zenoh.Handler[zenoh.Reply]:
+        """Send a steady poll (``steady_gets``): its replies come through the channel
+        returned, read by the poll thread; ``token`` ends the get early."""
+        assert self.querier is not None, "polled after close()"
+        return self.querier.get(payload=payload, cancellation_token=token)
+
     def payload(self, reply: zenoh.Reply, limit: int, bad_input: BadInputLog) -> bytes | None:
         """A reply's bytes, or None for an error reply or one over ``limit`` bytes (counted
         and logged; Zenoh's own timeout at the ceiling is no error: the core's timer has

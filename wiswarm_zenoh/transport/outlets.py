@@ -29,6 +29,7 @@ from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.silence import SilenceLog
+from wiswarm_zenoh.transport.steady_gets import SteadyGet, SteadyGets
 from wiswarm_zenoh.transport.telemetry import fresh_attachment
 
 log = logging.getLogger("wiswarm_zenoh.transport.leader_node")
@@ -57,12 +58,18 @@ class Outlets:
         self.deliveries = DeliveryStream(session, keys)
         self._control = session.declare_publisher(keys.control, express=True)
         self.bridge: LeaderBridge | None = None
+        self.steady: SteadyGets | None = None  # None: every poll on the callback path
 
-    def send(self, request: PollRequest) -> None:
+    def send(self, request: PollRequest) -> SteadyGet | None:
+        """Send a poll (and the control, when due); a steady one's get, to wait on."""
         control = request.control
         if control is not None:
             self._control.put(control)
-        self._links[request.follower].poll(request.payload, request.poll_seq)
+        link = self._links[request.follower]
+        if request.steady and self.steady is not None:
+            return self.steady.send(link, request)
+        link.poll(request.payload, request.poll_seq)
+        return None
 
     def hand_on(self, event: Event) -> None:
         match event:
