@@ -17,14 +17,14 @@ follower; then over a window of ``--seconds``: polls/s, S = 1/(polls/s), deliver
 follower (min, max, spread), each follower's mean AoI over the window against the
 round-robin floor S (N/2 + 1) with that S, and what the leader costs: this process's
 RSS growth since before its session opened, per follower, and its CPU time (all
-threads, Zenoh's included; the poll thread's alone beside it) per second and per
+threads, Zenoh's included; the two poll threads' alone beside it) per second and per
 follower, beside the whole machine's. Also shown: polls that timed out (on a 2-core
 machine hosting a thousand followers, a host descheduled past the 10 ms timeout floor
 makes a poll time out, and the leader then rightly polls that follower less for its next
 ``window`` polls: ``--timeout-floor`` tells that apart from the scheduler), and the
 leader's garbage-collector pauses. Last, a bare round-robin ``get`` loop over the same
 followers (prepared queriers, one get in flight) gives Zenoh's own S for comparison.
-``--profile K`` prints the poll thread's top K functions by CPU time (cProfile).
+``--profile K`` prints the poll threads' top K functions by CPU time (cProfile).
 
     .venv/bin/python benchmarks/bench_scale.py                  # N = 100, 300, 1000
     .venv/bin/python benchmarks/bench_scale.py -n 1000 --seconds 5 --profile 25
@@ -82,11 +82,14 @@ def host_process(spec: SessionSpec, followers: list[str], frame_bytes: int,
         wait_until_stopped(stop)
 
 
-def profile_poll_thread(profiler: cProfile.Profile, *_: object) -> None:
+def profile_poll_thread(profilers: list[cProfile.Profile], *_: object) -> None:
     """``threading.setprofile`` hook: the first call in each new thread; profiles only the
-    leader's poll thread (Zenoh starts Python threads for its callbacks too)."""
+    leader's poll threads, each with a profiler of its own (Zenoh starts Python threads
+    for its callbacks too)."""
     sys.setprofile(None)
-    if threading.current_thread().name == f"leader-{SWARM}":
+    if threading.current_thread().name.startswith(f"leader-{SWARM}/"):
+        profiler = cProfile.Profile(time.thread_time)
+        profilers.append(profiler)
         profiler.enable()
 
 
@@ -98,11 +101,14 @@ def rss_bytes() -> int:
     raise RuntimeError("no VmRSS in /proc/self/status")
 
 
-def thread_cpu(native_id: int) -> float:
-    """CPU seconds of one thread of this process (user + system)."""
-    with open(f"/proc/self/task/{native_id}/stat") as stat:
-        fields = stat.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / TICKS
+def thread_cpu(native_ids: list[int]) -> float:
+    """CPU seconds of some threads of this process (user + system)."""
+    total = 0
+    for native_id in native_ids:
+        with open(f"/proc/self/task/{native_id}/stat") as stat:
+            fields = stat.read().rsplit(")", 1)[1].split()
+        total += int(fields[11]) + int(fields[12])
+    return total / TICKS
 
 
 def machine_busy() -> float:
@@ -203,7 +209,7 @@ def window_figures(watch: Watch, followers: list[str], start: float,
 
 
 def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace,
-               seconds: float, profiler: cProfile.Profile | None,
+               seconds: float, profilers: list[cProfile.Profile] | None,
                ) -> tuple[float, float, int, int, Window]:
     """Discovery, then the measuring window; returns the time to all joins and to every
     follower's first delivery, the RSS growth after discovery and at the end, and the
@@ -212,8 +218,8 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
     watch = Watch(followers)
     rss0 = rss_bytes()
     with spec.open() as session:
-        if profiler is not None:  # the poll thread enables it for itself as it starts
-            threading.setprofile(partial(profile_poll_thread, profiler))
+        if profilers is not None:  # each poll thread enables its own as it starts
+            threading.setprofile(partial(profile_poll_thread, profilers))
         start = time.perf_counter()
         config = LeaderConfig(policy=args.policy, timeout=args.timeout,
                               timeout_floor=args.timeout_floor,
@@ -221,8 +227,8 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
         with LeaderNode(session, SWARM, config,
                         on_join=watch.on_join, on_delivery=watch.on_delivery) as node:
             threading.setprofile(None)
-            poll_thread = next(t for t in threading.enumerate() if t.name == f"leader-{SWARM}")
-            assert poll_thread.native_id is not None
+            poll_threads = [t.native_id for t in threading.enumerate()
+                            if t.name.startswith(f"leader-{SWARM}/") and t.native_id]
             if not watch.all_joined.wait(DISCOVERY_TIMEOUT):
                 raise RuntimeError(f"only {watch.joined} of {n} followers discovered")
             joined = time.perf_counter() - start
@@ -233,13 +239,13 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             time.sleep(args.warmup)
             timeouts0 = timeouts(node, session)  # before the window: the records cost CPU
             t0, polls0 = time.time(), node.polls
-            cpu0, thread0 = process_cpu(), thread_cpu(poll_thread.native_id)
+            cpu0, thread0 = process_cpu(), thread_cpu(poll_threads)
             machine0 = machine_busy()
             pauses = Pauses()
             time.sleep(seconds)
             pauses.close()
             t1, polls1 = time.time(), node.polls
-            cpu1, thread1 = process_cpu(), thread_cpu(poll_thread.native_id)
+            cpu1, thread1 = process_cpu(), thread_cpu(poll_threads)
             machine1 = machine_busy()
             rss_end = rss_bytes() - rss0
             timeouts1 = timeouts(node, session)  # after it
@@ -295,19 +301,19 @@ def measure(n: int, args: argparse.Namespace) -> None:
                        *((host_process, (node, names, args.frame_bytes)) for names in hosts)]
     # CPU time of the thread, not wall time: waits and preemption by other processes
     # (2 cores, a router and the hosts) would swamp what the poll thread itself costs.
-    profiler = cProfile.Profile(time.thread_time) if args.profile else None
+    profilers: list[cProfile.Profile] | None = [] if args.profile else None
     up = time.perf_counter()
     with children(jobs):
         up = time.perf_counter() - up
         joined, polled, rss_joined, rss_end, window = leader_run(node, followers, args, seconds,
-                                                                 profiler)
+                                                                 profilers)
         bare = bare_rate(node, followers, args.bare_seconds, args.timeout) \
             if args.bare_seconds > 0 else None
     report(n, args, up, joined, polled, rss_joined, rss_end, window, bare)
-    if profiler is not None:
-        print(f"\n  poll thread profile (whole run, cProfile: slower than unprofiled), "
+    if profilers:
+        print(f"\n  poll threads' profile (whole run, cProfile: slower than unprofiled), "
               f"top {args.profile} by own time:")
-        pstats.Stats(profiler).sort_stats("tottime").print_stats(args.profile)
+        pstats.Stats(*profilers).sort_stats("tottime").print_stats(args.profile)
 
 
 def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: float,
@@ -350,7 +356,7 @@ def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: f
           f"= {window.cpu / window.seconds / n * 1e6:7.1f} us/s per follower, "
           f"{window.cpu / window.polls * 1e6:6.1f} us per poll"
           + ("" if bare is None else f" (bare get loop: {bare[2] * 1e6:.1f})"))
-    print(f"  poll thread alone                    {window.poll_thread_cpu / window.seconds:6.1%}"
+    print(f"  poll threads alone                   {window.poll_thread_cpu / window.seconds:6.1%}"
           f" of a core = {window.poll_thread_cpu / window.seconds / n * 1e6:7.1f} us/s per "
           f"follower, {window.poll_thread_cpu / window.polls * 1e6:6.1f} us per poll"
           + ("" if bare is None else f" (bare get loop: {bare[1] * 1e6:.1f})"))

@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.core.build import pure_python_only
 from wiswarm_zenoh.core import WireError, fixed_layout
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.core.fixed_layout import expect, reply_prefix, unpack_poll, unpack_reply
@@ -158,6 +159,7 @@ def test_expecting_a_sender_changes_nothing_but_the_work(reply: Reply, from_poll
     assert unpack_reply(data, polled) == unpack_reply(data) == reply
 
 
+@pure_python_only
 def test_the_polled_followers_id_is_not_parsed(monkeypatch: pytest.MonkeyPatch) -> None:
     reply = Reply("uav1", 1, 0.0, 0.0, FRAG)
     data = encode_reply(reply)
@@ -173,6 +175,7 @@ def test_no_shortcut_is_expected_of_an_id_the_wire_refuses() -> None:
     assert expect("uav1") == ("uav1", reply_prefix("uav1"))
 
 
+@pure_python_only
 def test_what_to_expect_is_kept_for_a_swarm_and_no_more(
         monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(fixed_layout, "_expected", {})

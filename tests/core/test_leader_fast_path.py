@@ -110,7 +110,8 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
 )
 def test_the_fast_path_picks_what_the_usual_path_picks(
         n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
-    assert _compare_paths(n, weights, offers) >= len(offers) // 2  # mostly fast
+    # mostly fast, after two polls whose picks are made before any slot was measured
+    assert _compare_paths(n, weights, offers) >= (len(offers) - 2) // 2
 
 
 def test_the_fast_path_picks_what_the_usual_path_picks_among_many() -> None:

@@ -4,6 +4,7 @@ Nothing here reads a clock, opens a socket or starts a thread, so the same objec
 over Zenoh in real time and inside the simulator in virtual time.
 """
 
+from wiswarm_zenoh.core import leader as _leader_module
 from wiswarm_zenoh.core.aoi import AoITracker
 from wiswarm_zenoh.core.config import FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
@@ -27,7 +28,11 @@ from wiswarm_zenoh.core.wire import (
     validate_waypoints,
 )
 
+COMPILED = not _leader_module.__file__.endswith(".py")
+"""The core runs as mypyc-compiled extension modules (``make compiled``), not as Python."""
+
 __all__ = [
+    "COMPILED",
     "MAX_WAYPOINTS",
     "POLICIES",
     "Answering",

@@ -50,7 +50,7 @@ class Follower:
         self._chunk = self.config.fragment_size - FRAGMENT_HEADER_BYTES  # payload bytes
         self._reply_prefix = reply_prefix(follower_id)
 
-    def offer(self, payload: bytes, now: float) -> bool:
+    def offer(self, payload: bytes | bytearray | memoryview, now: float) -> bool:
         """Time-stamp an update with ``now`` and queue it; False if it was dropped."""
         if type(payload) is bytes:
             data = payload
@@ -70,7 +70,7 @@ class Follower:
         self._seq += 1
         return self.queue.push(Update(self._seq, now, data))
 
-    def on_poll(self, data: bytes, received_at: float, now: float) -> bytes:
+    def on_poll(self, data: object, received_at: float, now: float) -> bytes:
         """Answer one poll (raises ``WireError`` if ``data`` is not a poll)."""
         poll = decode_poll(data)
         self.polls += 1

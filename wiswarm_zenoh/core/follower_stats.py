@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 
 @dataclass(frozen=True)
@@ -26,6 +26,10 @@ class FollowerStats:
 
     def as_dict(self) -> dict[str, float | int | str]:
         """The record as a plain dict, the stats JSON's fields."""
-        # Its fields are plain numbers and a string: a shallow copy is the whole of it,
-        # 30 times cheaper than ``asdict``'s deep copy (made for each follower in each stats put).
-        return dict(vars(self))
+        # Its fields are plain numbers and a string: read by name is the whole of it, far
+        # cheaper than ``asdict``'s deep copy (made for each follower in each stats put);
+        # not ``vars``: the compiled core's classes have no ``__dict__``.
+        return {name: getattr(self, name) for name in _FIELDS}
+
+
+_FIELDS = tuple(field.name for field in fields(FollowerStats))

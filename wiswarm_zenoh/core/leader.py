@@ -112,6 +112,11 @@ class Leader:
         """The follower polled, while a poll is out (the earliest, when several are)."""
         return next(iter(self._flights), None)
 
+    def awaits(self, follower: str, poll_seq: int) -> bool:
+        """Poll ``poll_seq`` of ``follower`` is out: neither answered nor given up."""
+        flight = self._flights.get(follower)
+        return flight is not None and flight.request.poll_seq == poll_seq
+
     # --- input ---
 
     def add_follower(self, follower: str, now: float, link: str | None = None) -> None:
@@ -199,8 +204,9 @@ class Leader:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
         return self._peer(follower).observe_urgency(v)
 
-    def receive_reply(self, follower: str, data: bytes, now: float) -> None:
-        """One reply from ``follower`` (the key it came from), whatever it holds."""
+    def receive_reply(self, follower: str, data: object, now: float) -> None:
+        """One reply from ``follower`` (the key it came from), whatever it holds (not
+        bytes at all: refused, as garbage is)."""
         peer = self.table.peers.get(follower)
         if peer is None:  # one that just left may still answer: that is no bad input
             if follower not in self._departed:

@@ -61,7 +61,7 @@ _pack: Callable[[object], bytes] = msgpack.packb  # bytes as bin, str as str (ms
 encode_poll = pack_poll  # the leader's polls are all in the fixed layout
 
 
-def _unpack(data: bytes, kind: str) -> dict[str, Any]:
+def _unpack(data: object, kind: str) -> dict[str, Any]:
     if type(data) is not bytes:
         if not isinstance(data, bytes | bytearray | memoryview):
             raise WireError(f"{kind}: expected bytes, got {type(data).__name__}")
@@ -108,13 +108,15 @@ def _check(fault: str | None) -> None:
         raise WireError(fault)
 
 
-def decode_poll(data: bytes) -> Poll:
-    """A poll in the fixed layout the leader sends, or else in any valid encoding."""
+def decode_poll(data: object) -> Poll:
+    """A poll in the fixed layout the leader sends, or else in any valid encoding.
+    Decoders take any object (bytes-like is decoded; anything else is a ``WireError``):
+    the check is theirs, so that the compiled core refuses alike."""
     poll = unpack_poll(data) if type(data) is bytes else None
     return decode_poll_strict(data) if poll is None else poll
 
 
-def decode_poll_strict(data: bytes) -> Poll:
+def decode_poll_strict(data: object) -> Poll:
     obj = _unpack(data, "poll")
     ack_raw = obj.get("ack")
     ack: tuple[int, int] | None = None
@@ -137,7 +139,7 @@ def encode_reply(reply: Reply) -> bytes:
                       reply.sent_at, reply.fragment)
 
 
-def decode_reply(data: bytes, follower: str | None = None) -> Reply:
+def decode_reply(data: object, follower: str | None = None) -> Reply:
     """A reply in the fixed layout followers send, or else in any valid encoding.
     ``follower``, whom the reply answers, spares parsing that id (see ``unpack_reply``)."""
     reply = unpack_reply(data, follower) if type(data) is bytes else None
@@ -156,7 +158,7 @@ def _decode_fragment(body: object) -> FragmentData:
                         _uint(body, "size", within=at), _uint(body, "crc", UINT32, at), data)
 
 
-def decode_reply_strict(data: bytes) -> Reply:
+def decode_reply_strict(data: object) -> Reply:
     obj = _unpack(data, "reply")
     sender = obj.get("from")
     if not id_fits(sender):
@@ -213,7 +215,7 @@ def _number_lists(raw: object) -> bool:
         for wp in raw)
 
 
-def decode_control(data: bytes) -> Control:
+def decode_control(data: object) -> Control:
     obj = _unpack(data, "control")
     entries = obj.get("entries")
     if not (isinstance(entries, dict) and all(_number_lists(v) for v in entries.values())):

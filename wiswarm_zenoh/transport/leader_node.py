@@ -1,9 +1,12 @@
 """The leader on Zenoh: the core's thin shell (aioquic's asyncio adapter is the model).
 
-One thread owns the core: it feeds it what comes through one inbox (replies and ends
-of gets from Zenoh's thread, membership changes, the application's calls: no lock is
-shared with any caller) and the timer, and sends its polls and events on (``outlets``).
-A get stays open to the ceiling: a reply after the adaptive deadline still teaches.
+Two poll threads own the core, one at a time, under one lock that no caller shares:
+while one waits on a steady poll's own reply channel with the lock let go
+(``steady_gets``: the bare get loop's path), the other waits on the inbox (replies and
+ends of other gets from Zenoh's thread, membership changes, the application's calls)
+and the timer; whichever wakes feeds the core and sends its polls and events on
+(``outlets``). A get stays open to the ceiling: a reply after the adaptive deadline
+still teaches.
 """
 
 from __future__ import annotations
@@ -38,13 +41,14 @@ from wiswarm_zenoh.transport.telemetry import LeaderSummary
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
-Command = Callable[[], object] | None  # what the poll thread does next (None: wake up)
+Command = Callable[[], object] | None  # what a poll thread does next (None: wake up)
+POLL_THREADS = 2  # one may wait on a steady get while the other keeps inbox and timer
 
 
 class LeaderNode(AbstractContextManager["LeaderNode"]):
     """Polls the followers of ``swarm`` until ``close()``.
 
-    Callbacks run on the poll thread (keep them short): ``on_delivery`` for every fresh
+    Callbacks run on a poll thread, one at a time (keep them short): ``on_delivery`` for every fresh
     update, ``on_join``/``on_leave`` as liveliness tokens come and go, ``on_role`` (True:
     active) as the role is decided. ``epoch`` defaults to the start time in µs. The
     oldest of a swarm's leaders polls, the others stand by (``leader_role``); ``name``
@@ -93,12 +97,14 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
                                 on_delivery, clock, lambda f: not self._stop.is_set() and
                                 f in self._membership.followers)
-        self._steady = self._outlets.steady = SteadyGets(
-            self._leader, clock, self._reply, self._end, f"leader-{swarm}-deadlines")
+        self._steady = self._outlets.steady = SteadyGets(self._leader, self._reply, self._end)
         self.bridge = self._outlets.bridge = \
             None if bridge is None else bridge.open(session, swarm, self)
-        self._thread = threading.Thread(target=self._run, name=f"leader-{swarm}", daemon=True)
-        self._thread.start()
+        self._lock = threading.Lock()  # the core's: held by the poll thread feeding it
+        self._threads = [threading.Thread(target=self._run, name=f"leader-{swarm}/{i + 1}",
+                                          daemon=True) for i in range(POLL_THREADS)]
+        for thread in self._threads:
+            thread.start()
 
     # --- for the application (any thread) ---
 
@@ -153,8 +159,10 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         """Stop polling (waits for the poll in flight) and undeclare everything."""
         self._stop.set()
         self._inbox.put(None)
-        self._steady.close()  # lets go of a get the poll thread waits on
-        self._thread.join()
+        with self._lock:
+            self._steady.close()  # lets go of a get a poll thread waits on
+        for thread in self._threads:
+            thread.join()
         if self.bridge is not None:
             self.bridge.close()
         self._role.close()
@@ -168,7 +176,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     # --- the poll thread ---
 
     def _run(self) -> None:
-        leader = self._leader
+        leader, lock, inbox = self._leader, self._lock, self._inbox
+        lock.acquire()
         try:
             while not self._stop.is_set():
                 if self._role.changed:
@@ -184,30 +193,31 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                 if now >= deliveries.due:
                     deliveries.flush()
                 self._steady.sweep(now)
-                if steady is not None:  # the only poll out: wait on its own channel
-                    self._take_commands()
-                    self._steady.wait(steady)
+                if steady is not None:  # the other poll thread keeps inbox and timer
+                    self._steady.wait(steady, lock)
                     continue
                 timer = leader.get_timer()
                 wake_at = min(self._stats.due, deliveries.due, math.inf if timer is None else timer)
+                lock.release()
                 try:
-                    command = self._inbox.get(timeout=max(0.0, wake_at - now))
-                    while True:  # all that came meanwhile (a reply and its get's end: one wake)
-                        if command is not None:
-                            command()
-                        command = self._inbox.get_nowait()
+                    command: Command = inbox.get(timeout=max(0.0, wake_at - now))
                 except queue.Empty:
-                    leader.handle_timer(self._clock())
+                    command = self._timer
+                finally:
+                    lock.acquire()
+                while True:  # all that came meanwhile (a reply and its get's end: one wake)
+                    if command is not None:
+                        command()
+                    if inbox.empty():
+                        break
+                    command = inbox.get_nowait()
         finally:
             self._hand_on()
+            lock.release()
+            inbox.put(None)  # the wake ``close`` sent may have been taken here: pass it on
 
-    def _take_commands(self) -> None:
-        """What the inbox holds now, without waiting."""
-        inbox = self._inbox
-        while not inbox.empty():
-            command = inbox.get_nowait()
-            if command is not None:
-                command()
+    def _timer(self) -> None:
+        self._leader.handle_timer(self._clock())
 
     def _hand_on(self) -> None:  # the core's events
         while (event := self._leader.next_event()) is not None:

@@ -66,8 +66,9 @@ class Outlets:
         if control is not None:
             self._control.put(control)
         link = self._links[request.follower]
-        if request.steady and self.steady is not None:
-            return self.steady.send(link, request)
+        steady = self.steady
+        if request.steady and steady is not None and not (steady.busy or steady.closed):
+            return steady.send(link, request)
         link.poll(request.payload, request.poll_seq)
         return None
 

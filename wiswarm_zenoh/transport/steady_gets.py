@@ -1,28 +1,30 @@
-"""The reply path of a steady poll: the poll thread reads the get's own channel.
+"""The reply path of a steady poll: a poll thread reads the get's own channel.
 
 ``benchmarks/bench_reply_paths.py`` chose it: a reply handed over by a Python callback
 on Zenoh's thread costs every poll GIL hand-offs between threads, and the end-of-get
 callback one more, even after a valid reply, when the end is no news (path B, about
-0.8 of the bare get loop); a FIFO channel read by the poll thread is the bare loop's
-own path (A): Zenoh's threads run no Python, ``recv`` waits with the GIL released, and
-the get's end is the channel's close, for free. It serves a steady poll
-(``PollRequest.steady``: the only one out, to a follower that answers in time): the poll
-thread blocks in ``recv`` until the reply, the get's end (no queryable: at once), or
-the deadline, where ``DeadlineWatch`` cancels the get. Every other poll keeps the
-callback path (``FollowerLink.poll``), whose get stays open to the ceiling so that a
-late reply still teaches. Replies a steady get brings after its answer (another
+0.8 of the bare get loop); a FIFO channel read by the poll thread is the bare loop's own
+path (A): Zenoh's threads run no Python, ``recv`` waits with the GIL released, and the
+get's end is the channel's close, for free. It serves a steady poll
+(``PollRequest.steady``: the only one out, to a follower that answers in time) while no
+other poll thread waits on one: that thread releases the core's lock and blocks in
+``recv`` until the reply or the get's end (no queryable: at once), while the leader's
+other poll thread keeps the timer and the inbox, so a deadline that passes meanwhile
+ends the poll there, and the get stays open to the ceiling: a late reply still reaches
+the core and teaches it the link's new pace. Every other poll keeps the callback path
+(``FollowerLink.poll``). Replies a steady get brings after its answer (another
 queryable's on the same key) are still read, and judged, from its ``lingering`` channel.
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import zenoh
 
 from wiswarm_zenoh.core import Leader, PollRequest
-from wiswarm_zenoh.transport.deadline_watch import DeadlineWatch
 from wiswarm_zenoh.transport.links import FollowerLink
 
 SWEEP_PERIOD = 0.02  # seconds between looks at gets that stayed open after their answer
@@ -41,38 +43,46 @@ class SteadyGet:
 
 
 class SteadyGets:
-    """Sends steady polls and waits for their answers on the poll thread."""
+    """Sends steady polls and waits for their answers (under the core's lock, which it
+    lets go while it waits)."""
 
-    def __init__(self, leader: Leader, clock: Callable[[], float], take_reply: ReplyTaker,
-                 take_end: EndTaker, name: str) -> None:
-        self._leader, self._clock = leader, clock
+    def __init__(self, leader: Leader, take_reply: ReplyTaker, take_end: EndTaker) -> None:
+        self._leader = leader
         self._take_reply, self._take_end = take_reply, take_end
-        self._watch = DeadlineWatch(clock, name)
+        self.busy = False  # a poll thread waits on a steady get (one at a time)
+        self.closed = False  # no more steady gets (the leader is closing)
+        self._token: zenoh.CancellationToken | None = None  # that get's, for ``close``
         self._lingering: list[tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]] = []
         self._sweep_at = 0.0
 
     def send(self, link: FollowerLink, request: PollRequest) -> SteadyGet:
         token = zenoh.CancellationToken()
-        replies = link.poll_steady(request.payload, token)
-        self._watch.watch(request.deadline, token)  # after: a get cancelled first raises
-        return SteadyGet(link, request.poll_seq, replies)
+        self._token, self.busy = token, True
+        return SteadyGet(link, request.poll_seq, link.poll_steady(request.payload, token))
 
-    def wait(self, get: SteadyGet) -> None:
-        """Until the poll is answered (its get then lingers), its get ends, or its
-        deadline cancels the get (the core's timer then ends the poll)."""
-        link, replies, leader = get.link, get.replies, self._leader
-        recv = replies.recv
-        while True:
-            try:
-                reply = recv()
-            except zenoh.ZError:  # closed: the get is over, no reply can come any more
-                self._take_end(link, get.poll_seq)
-                break
-            self._take_reply(link, reply)
-            if leader.in_flight is None:  # answered (a refused reply leaves it out)
-                self._lingering.append((link, replies))
-                break
-        self._watch.clear()
+    def wait(self, get: SteadyGet, lock: threading.Lock) -> None:
+        """Until the poll is answered (its get then lingers), or its get ends; ``lock``
+        (held) is let go while ``recv`` waits."""
+        link, recv, leader = get.link, get.replies.recv, self._leader
+        follower, poll_seq = link.follower, get.poll_seq
+        try:
+            while True:
+                lock.release()
+                try:
+                    reply: zenoh.Reply | None = recv()
+                except zenoh.ZError:  # closed: the get is over, no reply can come any more
+                    reply = None
+                finally:
+                    lock.acquire()
+                if reply is None:
+                    self._take_end(link, poll_seq)
+                    return
+                self._take_reply(link, reply)
+                if not leader.awaits(follower, poll_seq):  # answered, or timed out before
+                    self._lingering.append((link, get.replies))
+                    return
+        finally:
+            self.busy, self._token = False, None
 
     def sweep(self, now: float) -> None:
         """What came since on the gets answered before (usually: only their end)."""
@@ -91,5 +101,10 @@ class SteadyGets:
         self._lingering = still
 
     def close(self) -> None:
-        self._watch.close()
+        """No more steady gets; the one waited on is let go (under the core's lock: a
+        poll thread may be in ``recv``, none is sending)."""
+        self.closed = True
+        token = self._token
+        if token is not None:
+            token.cancel()  # type: ignore[no-untyped-call]
         self._lingering.clear()
