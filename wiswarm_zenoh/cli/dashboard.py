@@ -90,4 +90,4 @@ def register(subparsers: Any) -> None:
     parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",
                         help="stop after this long (default: until Ctrl-C)")
     add_zenoh_arguments(parser, ("peer", "client"))
-    parser.set_defaults(func=_dashboard)
+    parser.set_defaults(func=_dashboard, needs="dashboard")

@@ -42,7 +42,7 @@ from wiswarm_zenoh.units import format_rate
 
 def register(subparsers: Any) -> None:
     """Add ``experiment`` and every study under it."""
-    from wiswarm_apps.tracking.study import register_tracking
+    from wiswarm_apps.tracking.cli import register_tracking
     from wiswarm_zenoh.cli.edge_cloud import register_edge_cloud
     from wiswarm_zenoh.cli.sim import register_sweep
 
@@ -118,4 +118,4 @@ def register_testbed(studies: Any) -> None:
     add_channel_arguments(testbed)
     add_medium_arguments(testbed, stations=False)
     add_live_arguments(testbed)
-    testbed.set_defaults(func=_testbed)
+    testbed.set_defaults(func=_testbed, needs="plots")

@@ -90,7 +90,7 @@ def register(subparsers: Any) -> None:
     record.add_argument("-o", "--out", required=True, type=writable_file(), metavar="FILE.mcap",
                         help="the MCAP file to write (replaced if it exists)")
     _add_common(record)
-    record.set_defaults(func=_record)
+    record.set_defaults(func=_record, needs="foxglove")
 
     live = subparsers.add_parser(
         "foxglove", help="serve a running swarm live to the Foxglove app (WebSocket)",
@@ -102,4 +102,4 @@ def register(subparsers: Any) -> None:
                       help=f"the address to serve on (default {DEFAULT_HOST}: this machine "
                       "only; 0.0.0.0 or :: for every interface)")
     _add_common(live)
-    live.set_defaults(func=_foxglove)
+    live.set_defaults(func=_foxglove, needs="foxglove")
