@@ -13,34 +13,26 @@ built alike. About 5 minutes with the defaults.
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 from pathlib import Path
 
+from study_flags import parse_on_testbed, study_parser
+
 from wiswarm_zenoh.experiments.sweep_report import gains_table
-from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import floor_lines, summarise
 from wiswarm_zenoh.options import ProgressBar
-from wiswarm_zenoh.testbed import ChannelSpec, TestbedUnavailable, check_available
+from wiswarm_zenoh.testbed import ChannelSpec
 from wiswarm_zenoh.units import parse_rate
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--ns", type=int, nargs="+", default=[8, 14])
-    parser.add_argument("--duration", type=float, default=10.0, help="seconds per run")
-    parser.add_argument("--warmup", type=float, default=4.0)
+    parser = study_parser(__file__, __doc__, ns=(8, 14))
     parser.add_argument("--rate", type=parse_rate, default=20_000_000)
     parser.add_argument("--parallel", type=int, default=2)
-    parser.add_argument("--baselines", default=",".join(BASELINES))
-    args = parser.parse_args()
-    try:
-        check_available()
-    except TestbedUnavailable as exc:
-        print(f"bench_testbed: {exc}", file=sys.stderr)
-        return 2
-    config = StudyConfig(ns=tuple(args.ns), baselines=tuple(args.baselines.split(",")),
+    args = parse_on_testbed(parser)
+    config = StudyConfig(ns=args.ns, baselines=args.baselines,
                          duration=args.duration, warmup=args.warmup,
                          channel=ChannelSpec(rate_bps=args.rate), parallel=args.parallel)
     with tempfile.TemporaryDirectory() as tmp:

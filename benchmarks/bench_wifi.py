@@ -9,22 +9,22 @@ at 50 fps and at its best rate): WiSwarm's mean AoI against the round-robin floo
 table beside the paper's, and the air's counters per run. Linux, root, ns-3.
 
     .venv/bin/python benchmarks/bench_wifi.py
-    .venv/bin/python benchmarks/bench_wifi.py --ns 4 8 14 --duration 15
+    .venv/bin/python benchmarks/bench_wifi.py --ns 4,8,14 --duration 15
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 import tempfile
 from pathlib import Path
 
+from study_flags import parse_on_testbed, study_parser
+
 from wiswarm_zenoh.experiments.sweep_report import gains_table
-from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import floor_lines, medium_lines, summarise
-from wiswarm_zenoh.options import ProgressBar
-from wiswarm_zenoh.testbed import TestbedUnavailable, check_available
+from wiswarm_zenoh.options import ProgressBar, add_wifi_arguments, wifi_of
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.run import RunSpec, measure
 from wiswarm_zenoh.testbed.wifi import WifiMedium
@@ -55,26 +55,15 @@ def held(n: int, spec: WifiSpec, duration: float, warmup: float) -> bool:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--ns", type=int, nargs="+", default=[4, 8, 14])
-    parser.add_argument("--duration", type=float, default=10.0, help="seconds per run")
-    parser.add_argument("--warmup", type=float, default=4.0)
-    parser.add_argument("--standard", default="80211g")
-    parser.add_argument("--data-rate", default=None)
-    parser.add_argument("--hard-limit-ms", type=float, default=100.0)
-    parser.add_argument("--baselines", default=",".join(BASELINES))
+    parser = study_parser(__file__, __doc__, ns=(4, 8, 14))
+    add_wifi_arguments(parser)
     parser.add_argument("--skip-limits", action="store_true",
                         help="study the largest N given without checking each first")
-    args = parser.parse_args()
-    try:
-        check_available()
-    except TestbedUnavailable as exc:
-        print(f"bench_wifi: {exc}", file=sys.stderr)
-        return 2
+    args = parse_on_testbed(parser)
     if (reason := unavailable_reason()) is not None:
         print(f"bench_wifi: {reason}", file=sys.stderr)
         return 2
-    spec = WifiSpec(max(args.ns), args.standard, args.data_rate, args.hard_limit_ms)
+    spec = wifi_of(args, max(args.ns))
     print(f"real time on this machine ({os.cpu_count()} cores), {spec.describe()}:")
     reached = max(args.ns) if args.skip_limits else 0
     for n in ([] if args.skip_limits else sorted(args.ns)):
@@ -85,7 +74,7 @@ def main() -> int:
         print("no N held in real time")
         return 1
     print(f"\nlargest N held: {reached}; the study at N = {reached}:")
-    config = StudyConfig(ns=(reached,), baselines=tuple(args.baselines.split(",")),
+    config = StudyConfig(ns=(reached,), baselines=args.baselines,
                          duration=args.duration, warmup=args.warmup, medium=spec)
     with tempfile.TemporaryDirectory() as tmp:
         results = run_study(config, Path(tmp), ProgressBar("bench_wifi"))

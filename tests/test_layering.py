@@ -88,7 +88,7 @@ def test_the_cli_imports_what_it_runs(module: Path) -> None:
 def test_the_cli_reaches_the_application_and_the_studies() -> None:
     """The links the CLI used to make by name are imports now."""
     linked = {m for path in sources(PACKAGE / "cli") for m, _ in imports(path)}
-    assert {"wiswarm_apps.tracking", "wiswarm_apps.tracking.study"} <= linked
+    assert {"wiswarm_apps.tracking", "wiswarm_apps.tracking.cli"} <= linked
 
 
 @pytest.mark.parametrize("module", sources(ROOT / "apps"), ids=lambda p: str(p.relative_to(ROOT)))

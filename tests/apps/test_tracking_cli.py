@@ -9,8 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from wiswarm_apps.tracking.cli import add_demo_arguments, options_from, run_demo
+from wiswarm_apps.tracking.cli import add_demo_arguments
 from wiswarm_apps.tracking.demo import DemoOptions
+from wiswarm_apps.tracking.demo_runs import options_from, run_demo
 from wiswarm_apps.tracking.report import channel_entry
 from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.testbed import WifiSpec

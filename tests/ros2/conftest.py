@@ -1,5 +1,6 @@
-"""A third-party ROS 2 client (``client.run_client``) in a ``spawn`` child, talked to
-over a pipe; message definitions laid out for it in the test's directory."""
+"""The transport tests' loopback fixtures, and a third-party ROS 2 client
+(``client.run_client``) in a ``spawn`` child, talked to over a pipe; message definitions
+laid out for it in the test's directory."""
 
 from __future__ import annotations
 
@@ -10,8 +11,7 @@ from typing import Any
 
 import pytest
 
-from tests.transport.helpers import Recorder, Sessions
-from wiswarm_zenoh.transport import free_tcp_port
+from tests.transport.fixtures import port, recorder, sessions  # noqa: F401  (fixtures)
 
 from .client import run_client
 from .definitions import write_definitions
@@ -22,12 +22,12 @@ WAIT_S = 20.0  # the client's discovery takes a few seconds on a busy machine
 class Client:
     """The child's messages, by kind, as they come; commands to it."""
 
-    def __init__(self, port: int, domain: int, definitions: Path, expected: list[str],
+    def __init__(self, router_port: int, domain: int, definitions: Path, expected: list[str],
                  subscribe: list[tuple[str, str, int]]) -> None:
         context = multiprocessing.get_context("spawn")
         self._pipe, theirs = context.Pipe()
         self._process = context.Process(target=run_client, args=(
-            port, domain, definitions, expected, subscribe, theirs), daemon=True)
+            router_port, domain, definitions, expected, subscribe, theirs), daemon=True)
         self._process.start()
         self.inbox: list[tuple[Any, ...]] = []
 
@@ -57,29 +57,13 @@ class Client:
 
 
 @pytest.fixture
-def port() -> int:
-    return free_tcp_port()
-
-
-@pytest.fixture
-def sessions() -> Iterator[Sessions]:
-    opened = Sessions()
-    yield opened
-    opened.close_all()
-
-
-@pytest.fixture
-def recorder() -> Recorder:
-    return Recorder()
-
-
-@pytest.fixture
 def open_client(tmp_path: Path) -> Iterator[Any]:
     clients: list[Client] = []
 
-    def start(port: int, domain: int, expected: list[str],
+    def start(router_port: int, domain: int, expected: list[str],
               subscribe: list[tuple[str, str, int]]) -> Client:
-        client = Client(port, domain, write_definitions(tmp_path / "msg"), expected, subscribe)
+        client = Client(router_port, domain, write_definitions(tmp_path / "msg"), expected,
+                        subscribe)
         clients.append(client)
         return client
 

@@ -102,4 +102,4 @@ def register_edge_cloud(studies: Any) -> None:
     parser.add_argument("--out", type=writable_dir(), metavar="DIR",
                         help="output directory (runs/edge-cloud-<timestamp>)")
     add_channel_arguments(parser)
-    parser.set_defaults(func=_edge_cloud)
+    parser.set_defaults(func=_edge_cloud, needs="plots")

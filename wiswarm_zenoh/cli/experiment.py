@@ -42,7 +42,7 @@ from wiswarm_zenoh.units import format_rate
 
 def register(subparsers: Any) -> None:
     """Add ``experiment`` and every study under it."""
-    from wiswarm_apps.tracking.study import register_tracking
+    from wiswarm_apps.tracking.cli import register_tracking
     from wiswarm_zenoh.cli.edge_cloud import register_edge_cloud
     from wiswarm_zenoh.cli.sim import register_sweep
 
@@ -52,6 +52,21 @@ def register(subparsers: Any) -> None:
     for register_study in (register_sweep, register_testbed, register_tracking,
                            register_edge_cloud):
         register_study(studies)
+
+
+def add_study_arguments(parser: argparse.ArgumentParser, ns: tuple[int, ...],
+                        duration: float, warmup: float) -> None:
+    """The stationary study's size and systems (--ns, --baselines, --duration, --warmup),
+    with these defaults: for ``experiment testbed`` and the benchmarks that run it."""
+    parser.add_argument("--ns", type=COUNTS, default=ns,
+                        help=f"numbers of UAVs (default {','.join(map(str, ns))})")
+    parser.add_argument("--baselines", type=listed(one_of(BASELINES), ",".join(BASELINES)),
+                        default=BASELINES,
+                        help=f"comma-separated, of {', '.join(BASELINES)} (default all)")
+    parser.add_argument("--duration", type=positive_float(), default=duration,
+                        help=f"seconds measured per run (default {duration:g}; the paper: 240)")
+    parser.add_argument("--warmup", type=finite_float(0.0), default=warmup,
+                        help=f"seconds before each run's window opens (default {warmup:g})")
 
 
 def _study_config(args: argparse.Namespace) -> StudyConfig:
@@ -96,18 +111,10 @@ def register_testbed(studies: Any) -> None:
         "root): for each N, WiSwarm, each "
         "baseline at --fixed-rate and at its best rate of --rates (found by a search). "
         "Writes CSVs, figures with the simulator's model of the channel beside, gains.md.")
-    testbed.add_argument("--ns", type=COUNTS, default=PAPER_NS,
-                         help="numbers of UAVs (default 2,4,...,14)")
-    testbed.add_argument("--baselines", type=listed(one_of(BASELINES), ",".join(BASELINES)),
-                         default=BASELINES,
-                         help=f"comma-separated, of {', '.join(BASELINES)} (default all)")
+    add_study_arguments(testbed, PAPER_NS, duration=30.0, warmup=5.0)
     add_rate_grid(testbed, "the baselines'")
     testbed.add_argument("--batches", type=positive_int(), default=1,
                          help="batches per point (default 1; the paper: 4)")
-    testbed.add_argument("--duration", type=positive_float(), default=30.0,
-                         help="seconds measured per run (default 30; the paper: 240)")
-    testbed.add_argument("--warmup", type=finite_float(0.0), default=5.0,
-                         help="seconds before each run's window opens (default 5)")
     testbed.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                          help=f"bytes per camera frame (default {FRAME_BYTES} = 224x224)")
     testbed.add_argument("--parallel", type=positive_int(),
@@ -118,4 +125,4 @@ def register_testbed(studies: Any) -> None:
     add_channel_arguments(testbed)
     add_medium_arguments(testbed, stations=False)
     add_live_arguments(testbed)
-    testbed.set_defaults(func=_testbed)
+    testbed.set_defaults(func=_testbed, needs="plots")

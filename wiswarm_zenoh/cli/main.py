@@ -1,9 +1,11 @@
 """Entry point of the ``wiswarm`` console script.
 
 Each subcommand group lives in its own module exposing ``register(subparsers)``, imported
-by ``every_command``;
+by ``every_command``; registering loads no optional library (``wiswarm_zenoh.extras``),
+and a command that always needs one says so with ``set_defaults(needs=EXTRA)``;
 bad input ends with one line on stderr and exit code 2, returned by ``main`` (argparse's
-exit included), so that callers in-process see the same code as the shell.
+exit included), so that callers in-process see the same code as the shell; so does a
+command whose extra is not installed (``wiswarm_zenoh.extras``): its line says which.
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from wiswarm_zenoh.extras import missing_extra, require
 from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.programs.router_watch import NoRouterReached
 from wiswarm_zenoh.programs.runners import sigterm_as_ctrl_c
@@ -40,12 +43,16 @@ def every_command() -> tuple[Registrar, ...]:
             security.register, dashboard.register, recording.register, tracking.register)
 
 
+def command_of(argv: Sequence[str]) -> str | None:
+    """The command ``argv`` names (its first word that is no option)."""
+    return next((arg for arg in argv if not arg.startswith("-")), None)
+
+
 def commands_for(argv: Sequence[str]) -> tuple[Registrar, ...]:
     """The commands to build a parser of for ``argv``: a node (router, leader, follower:
     what a robot runs, on a small computer) gets its own alone, so that it loads what
     nodes need and not the tracking app, the dashboard or ROS 2; anything else all."""
-    command = next((arg for arg in argv if not arg.startswith("-")), None)
-    if command in NODE_COMMANDS:
+    if command_of(argv) in NODE_COMMANDS:
         from wiswarm_zenoh.cli import nodes
         return (nodes.register,)
     return every_command()
@@ -73,6 +80,17 @@ def main(argv: Sequence[str] | None = None,
          registrars: Sequence[Registrar] | None = None) -> int:
     """Run one command (``argv``, default the process's); its exit code."""
     argv = sys.argv[1:] if argv is None else argv
+    try:
+        return _run(argv, registrars)
+    except ImportError as exc:  # the one place a missing extra is told, wherever it was met
+        missing = missing_extra(exc)
+        if missing is None:
+            raise
+        print(f"wiswarm {command_of(argv)}: {missing}", file=sys.stderr)
+        return 2
+
+
+def _run(argv: Sequence[str], registrars: Sequence[Registrar] | None) -> int:
     parser = build_parser(commands_for(argv) if registrars is None else registrars)
     try:
         args = parser.parse_args(argv)
@@ -82,6 +100,8 @@ def main(argv: Sequence[str] | None = None,
     logging.basicConfig(level=level, format=LOG_FORMAT)
     if args.command != "router":  # which starts Zenoh's log itself, showing denials
         init_zenoh_log(args.verbose)
+    if getattr(args, "needs", None) is not None:
+        require(args.needs)  # before anything starts
     try:
         with sigterm_as_ctrl_c():  # a service manager's stop ends a node as Ctrl-C does
             code: int = args.func(args)

@@ -363,4 +363,4 @@ def register(subparsers: Any) -> None:
                       help="frames/s")
     demo.add_argument("--out", default=Path("runs"), type=writable_dir(), metavar="DIR",
                       help="where run directories go (default runs)")
-    demo.set_defaults(func=_demo)
+    demo.set_defaults(func=_demo, needs="plots")

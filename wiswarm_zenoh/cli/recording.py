@@ -1,9 +1,6 @@
 """``wiswarm record`` and ``wiswarm foxglove``: a running swarm in Foxglove, recorded to
-MCAP or served live, from its key expressions only (``wiswarm_zenoh.recording``).
-
-Like the other nodes they connect to a router on this machine (tcp/127.0.0.1:7447) as a
-peer unless -e or -c says otherwise; they only subscribe, so they never slow the swarm.
-"""
+MCAP or served live, from its key expressions only (``wiswarm_zenoh.recording``;
+commands that watch: ``watching``)."""
 
 from __future__ import annotations
 
@@ -11,27 +8,12 @@ import argparse
 import threading
 from typing import Any
 
-from wiswarm_zenoh.cli.dashboard import ADDRESS
-from wiswarm_zenoh.cli.nodes import DEFAULT_SWARM
-from wiswarm_zenoh.options import (
-    UPDATE_ADAPTER,
-    UsageError,
-    add_zenoh_arguments,
-    integer,
-    node_name,
-    positive_float,
-    writable_file,
-)
+from wiswarm_zenoh.cli.watching import add_serve_arguments, add_watch_arguments, watch_spec
+from wiswarm_zenoh.options import UPDATE_ADAPTER, UsageError, writable_file
 from wiswarm_zenoh.programs.runners import wait_until_stopped
 from wiswarm_zenoh.recording import DEFAULT_HOST, DEFAULT_PORT, SwarmRecording
 from wiswarm_zenoh.ros2 import adapter
-from wiswarm_zenoh.transport.zenoh_config import LOCAL_ROUTER, SessionSpec
-
-
-def _spec(args: argparse.Namespace) -> SessionSpec:
-    spec = SessionSpec.from_args(args, "peer", (LOCAL_ROUTER,))
-    spec.config()  # every flag checked before anything starts
-    return spec
+from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 
 def run_recording(spec: SessionSpec, args: argparse.Namespace, title: str,
@@ -56,23 +38,19 @@ def run_recording(spec: SessionSpec, args: argparse.Namespace, title: str,
 
 
 def _record(args: argparse.Namespace) -> int:
-    return run_recording(_spec(args), args, "record", mcap=args.out)
+    return run_recording(watch_spec(args), args, "record", mcap=args.out)
 
 
 def _foxglove(args: argparse.Namespace) -> int:
-    return run_recording(_spec(args), args, "foxglove", port=args.port, host=args.host)
+    return run_recording(watch_spec(args), args, "foxglove", port=args.port, host=args.host)
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--swarm", default=DEFAULT_SWARM, type=node_name("swarm name"),
-                        help=f"the swarm, a key chunk (default {DEFAULT_SWARM})")
     parser.add_argument("--updates", metavar="ADAPTER", type=UPDATE_ADAPTER,
                         help="also take each delivered update (wiswarm/<swarm>/<id>/fresh) "
                         "through this application's adapter into images and poses (tracking: "
                         "the demo's frames); by default updates are not subscribed to")
-    parser.add_argument("--duration", type=positive_float(), metavar="SECONDS",
-                        help="stop after this long (default: until Ctrl-C)")
-    add_zenoh_arguments(parser, ("peer", "client"))
+    add_watch_arguments(parser, "the swarm")
 
 
 DESCRIPTION = ("Channels, under /wiswarm/<swarm>: deliveries (every delivery and unanswered "
@@ -90,16 +68,12 @@ def register(subparsers: Any) -> None:
     record.add_argument("-o", "--out", required=True, type=writable_file(), metavar="FILE.mcap",
                         help="the MCAP file to write (replaced if it exists)")
     _add_common(record)
-    record.set_defaults(func=_record)
+    record.set_defaults(func=_record, needs="foxglove")
 
     live = subparsers.add_parser(
         "foxglove", help="serve a running swarm live to the Foxglove app (WebSocket)",
         description="Serves a running swarm live through the Foxglove SDK's WebSocket "
         "server: in Foxglove, open a connection to the address it prints. " + DESCRIPTION)
-    live.add_argument("--port", type=integer(0, 65535), default=DEFAULT_PORT,
-                      help=f"the WebSocket's TCP port (default {DEFAULT_PORT}; 0: any free one)")
-    live.add_argument("--host", type=ADDRESS, default=DEFAULT_HOST,
-                      help=f"the address to serve on (default {DEFAULT_HOST}: this machine "
-                      "only; 0.0.0.0 or :: for every interface)")
+    add_serve_arguments(live, "the WebSocket", DEFAULT_PORT, DEFAULT_HOST, any_port=True)
     _add_common(live)
-    live.set_defaults(func=_foxglove)
+    live.set_defaults(func=_foxglove, needs="foxglove")

@@ -110,11 +110,11 @@ def register(subparsers: Any) -> None:
                        help=f"certificate lifetime in days, at most {MAX_DAYS} (default 365)")
     add_ros2_arguments(start, updates=False, what="let the leader run with --ros2: its "
                        "ROS 2 topics, Paths in and node tokens are allowed, nothing more")
-    start.set_defaults(func=_init)
+    start.set_defaults(func=_init, needs="security")
     add = commands.add_parser("add-follower", help="a certificate and config for one more "
                               "follower; rewrites the router's rules")
     add.add_argument("--out", required=True, metavar="DIR", type=writable_dir(),
                      help="the directory init wrote")
     add.add_argument("follower", type=_FOLLOWER,
                      help="the new follower's id")
-    add.set_defaults(func=_add_follower)
+    add.set_defaults(func=_add_follower, needs="security")

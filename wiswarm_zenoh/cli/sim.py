@@ -209,4 +209,4 @@ def register_sweep(studies: Any) -> None:
     sweep.add_argument("--out", type=writable_dir(), metavar="DIR",
                        help="output directory (runs/sweep-<timestamp>)")
     add_live_arguments(sweep)
-    sweep.set_defaults(func=_sweep)
+    sweep.set_defaults(func=_sweep, needs="plots")

@@ -2,7 +2,9 @@
 and for any program that wants one beside its swarm (the tracking demo).
 
 The web server runs an asyncio loop on that thread; the Zenoh subscribers run on Zenoh's
-threads and hand their changes to it. ``close()`` stops both.
+threads and hand their changes to it. ``close()`` stops both. The server (aiohttp, the
+dashboard extra) is loaded when a dashboard is made, not with this package, whose live
+points and feed the experiments use without it.
 """
 
 from __future__ import annotations
@@ -15,12 +17,11 @@ import threading
 from types import TracebackType
 
 import zenoh
-from aiohttp import web
 
 from wiswarm_zenoh.dashboard.feed import Feed
 from wiswarm_zenoh.dashboard.hub import Hub
 from wiswarm_zenoh.dashboard.state import WINDOW_S, SwarmState
-from wiswarm_zenoh.dashboard.web import build_app
+from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)
@@ -42,10 +43,16 @@ def _url(host: str, port: int) -> str:
 
 class Dashboard:
     """Serves the live page of ``swarm`` on ``host:port`` (port 0: any free one) until
-    ``close()``; ``url`` says where. Raises OSError if it cannot listen there."""
+    ``close()``; ``url`` says where. Raises OSError if it cannot listen there, and
+    MissingExtra without the dashboard extra."""
 
     def __init__(self, session: zenoh.Session, swarm: str, port: int = DEFAULT_PORT,
                  host: str = DEFAULT_HOST, *, window_s: float = WINDOW_S) -> None:
+        require("dashboard")
+        from aiohttp import web
+
+        from wiswarm_zenoh.dashboard.web import build_app
+
         self._loop = asyncio.new_event_loop()
         self.hub = Hub(self._loop)
         self.state = SwarmState(swarm, self.hub.publish, window_s=window_s)
@@ -79,6 +86,8 @@ class Dashboard:
         return dashboard
 
     def _serve(self, host: str, port: int, started: threading.Event) -> None:
+        from aiohttp import web  # loaded by __init__
+
         asyncio.set_event_loop(self._loop)
         try:
             self._loop.run_until_complete(self._runner.setup())

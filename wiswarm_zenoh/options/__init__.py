@@ -35,9 +35,11 @@ from wiswarm_zenoh.options.testbed import (
     add_channel_arguments,
     add_medium_arguments,
     add_rates,
+    add_wifi_arguments,
     channel_spec,
     parse_size,
     require_testbed,
+    wifi_of,
     wifi_spec,
 )
 from wiswarm_zenoh.units import format_rate
@@ -64,6 +66,7 @@ __all__ = [
     "add_rate_grid",
     "add_rates",
     "add_ros2_arguments",
+    "add_wifi_arguments",
     "add_zenoh_arguments",
     "channel_spec",
     "finite_float",
@@ -81,6 +84,7 @@ __all__ = [
     "require_testbed",
     "ros2_options",
     "show_written",
+    "wifi_of",
     "wifi_spec",
     "writable_dir",
     "writable_file",

@@ -4,19 +4,15 @@ what it takes, refused in one line before anything starts."""
 from __future__ import annotations
 
 import argparse
-from typing import TYPE_CHECKING
 
+from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.options.arguments import ArgType, integer, positive_float
+from wiswarm_zenoh.ros2 import Ros2Options, adapter
 from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_namespace
 from wiswarm_zenoh.usage import UsageError
 
-if TYPE_CHECKING:  # the ROS 2 side (its message types) is loaded when --ros2 is given
-    from wiswarm_zenoh.ros2 import Ros2Options
-
 
 def _adapter_name(text: str) -> str:
-    from wiswarm_zenoh.ros2 import adapter
-
     adapter(text)  # ValueError naming the registered ones
     return text
 
@@ -55,15 +51,15 @@ def add_ros2_arguments(parser: argparse.ArgumentParser, updates: bool = True,
 
 
 def ros2_options(args: argparse.Namespace) -> Ros2Options | None:
-    """The ROS 2 side asked for, or None; a --ros-* flag without --ros2 is an error."""
+    """The ROS 2 side asked for, or None; a --ros-* flag without --ros2 is an error, and
+    --ros2 without the ros2 extra (its message types are loaded when --ros2 is given)."""
     given = [flag for flag in ("ros_domain", "ros_namespace", "ros_updates", "ros_max_rate")
              if getattr(args, flag, None) is not None]
     if not args.ros2:
         if given:
             raise UsageError(f"--{given[0].replace('_', '-')} is for --ros2: add --ros2")
         return None
-    from wiswarm_zenoh.ros2 import Ros2Options, adapter
-
+    require("ros2")
     return Ros2Options(domain=args.ros_domain or 0, namespace=args.ros_namespace,
                        adapter=None if getattr(args, "ros_updates", None) is None
                        else adapter(args.ros_updates),

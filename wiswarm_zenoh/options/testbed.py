@@ -101,6 +101,12 @@ def add_medium_arguments(parser: argparse.ArgumentParser, stations: bool) -> Non
                             metavar="N",
                             help=f"wifi: stations, one per follower (1-{MAX_STATIONS}); "
                                  "default 4")
+    add_wifi_arguments(parser)
+
+
+def add_wifi_arguments(parser: argparse.ArgumentParser) -> None:
+    """The WiFi medium's shape, ns-3's: --standard, --data-rate, --hard-limit
+    (``wifi_of``), for whatever runs over it (``--medium wifi``, bench_wifi.py)."""
     parser.add_argument("--standard", choices=STANDARDS, default="80211g",
                         help="wifi: the 802.11 standard; default 80211g")
     parser.add_argument("--data-rate", type=WIFI_MODE, metavar="MODE",
@@ -114,8 +120,11 @@ def add_medium_arguments(parser: argparse.ArgumentParser, stations: bool) -> Non
 def wifi_spec(args: argparse.Namespace, stations: int) -> WifiSpec | None:
     """The WiFi medium ``add_medium_arguments``' flags describe, None for tbf
     (UsageError if bad)."""
-    if args.medium != "wifi":
-        return None
+    return wifi_of(args, stations) if args.medium == "wifi" else None
+
+
+def wifi_of(args: argparse.Namespace, stations: int) -> WifiSpec:
+    """The WiFi medium ``add_wifi_arguments``' flags describe (UsageError if bad)."""
     try:
         return WifiSpec(stations=stations, standard=args.standard, data_mode=args.data_rate,
                         hard_limit_ms=args.hard_limit * 1e3)

@@ -19,7 +19,6 @@ from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
-import cv2
 import numpy as np
 import zenoh
 from foxglove import Channel, Context
@@ -48,6 +47,7 @@ from wiswarm_zenoh.dashboard.records import (
     parse_stats,
     parse_tracking,
 )
+from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.recording import schemas
 from wiswarm_zenoh.recording.scene import arena_update
 from wiswarm_zenoh.ros2 import IMAGE, POSE_STAMPED, UpdateAdapter
@@ -78,6 +78,8 @@ class SwarmChannels:
         self._channels: dict[str, Any] = {}
         self._lock = threading.Lock()
         self._active: tuple[str, int] | None = None  # the active leader and its epoch
+        if adapter is not None and any(out.type_name == IMAGE for out in adapter.outputs):
+            require("tracking")  # images are PNG-encoded with OpenCV (_png)
 
     def handlers(self) -> dict[str, Handler]:
         """What to subscribe to, and what each sample becomes."""
@@ -196,6 +198,8 @@ class SwarmChannels:
 
 def _png(image: Any, at: float) -> CompressedImage:
     """A ``sensor_msgs/msg/Image`` (mono8) as a lossless PNG."""
+    import cv2  # only images need it, and only the tracking application's adapter makes them
+
     pixels = np.asarray(image.data, np.uint8).reshape(image.height, image.width)
     ok, png = cv2.imencode(".png", pixels)
     if not ok:

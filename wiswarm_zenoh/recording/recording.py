@@ -1,7 +1,9 @@
 """``SwarmRecording``: a running swarm's channels (``channels``) into an MCAP file
 (``wiswarm record``, ``wiswarm demo``'s ``run.mcap``) and/or live to Foxglove through the
 SDK's WebSocket server (``wiswarm foxglove``). It only subscribes: the leader sends its
-delivery stream and fresh updates only while someone listens, and a put never waits."""
+delivery stream and fresh updates only while someone listens, and a put never waits.
+The Foxglove SDK (the foxglove extra) is loaded when a recording is made, not with this
+package."""
 
 from __future__ import annotations
 
@@ -10,10 +12,9 @@ import logging
 from pathlib import Path
 from types import TracebackType
 
-import foxglove
 import zenoh
 
-from wiswarm_zenoh.recording.channels import SwarmChannels
+from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.ros2 import UpdateAdapter
 from wiswarm_zenoh.transport.watch import Watch
 
@@ -26,11 +27,17 @@ DEFAULT_HOST = "127.0.0.1"
 class SwarmRecording:
     """Records ``swarm`` into ``mcap`` (a path) and/or serves it on ``host:port`` (port 0:
     any free one; ``url`` says where) until ``close()``. ``adapter`` makes images and
-    poses of the fresh updates (without one, updates are not subscribed to)."""
+    poses of the fresh updates (without one, updates are not subscribed to).
+    MissingExtra without the foxglove extra."""
 
     def __init__(self, session: zenoh.Session, swarm: str, *, mcap: Path | None = None,
                  port: int | None = None, host: str = DEFAULT_HOST,
                  adapter: UpdateAdapter | None = None) -> None:
+        require("foxglove")
+        import foxglove
+
+        from wiswarm_zenoh.recording.channels import SwarmChannels
+
         self._context = foxglove.Context()
         self.channels = SwarmChannels(self._context, swarm, adapter)
         self._sinks = contextlib.ExitStack()

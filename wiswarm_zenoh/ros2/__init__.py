@@ -1,62 +1,23 @@
 """ROS 2 over rmw_zenoh (its design document): the leader as a ROS 2 participant, and
-the pieces an application needs to map its updates to standard messages."""
+the pieces an application needs to map its updates to standard messages.
 
-from importlib import import_module
-from typing import TYPE_CHECKING, Any
+Each public name is listed once, as an explicit re-export (``name as name``). Importing
+this is light: the message types (rosbags, the ros2 extra) load when one is first used.
+"""
 
-if TYPE_CHECKING:
-    from wiswarm_zenoh.ros2.adapters import (
-        BytesAdapter,
-        Output,
-        UpdateAdapter,
-        adapter,
-        adapter_names,
-        register_adapter,
-    )
-    from wiswarm_zenoh.ros2.bridge import Ros2Bridge, Ros2Options, default_namespace
-    from wiswarm_zenoh.ros2.messages import (
-        IMAGE,
-        PATH,
-        POSE_STAMPED,
-        header,
-        message_class,
-        ros_type,
-        yaw_quaternion,
-    )
-
-# Loaded when first named (PEP 562): the message types (rosbags) cost a node that never
-# speaks ROS 2 tens of MB, and a submodule (``graph``) is imported without them.
-_HOMES = {
-    **dict.fromkeys(("BytesAdapter", "Output", "UpdateAdapter", "adapter", "adapter_names",
-                     "register_adapter"), "adapters"),
-    **dict.fromkeys(("Ros2Bridge", "Ros2Options", "default_namespace"), "bridge"),
-    **dict.fromkeys(("IMAGE", "PATH", "POSE_STAMPED", "header", "message_class", "ros_type",
-                     "yaw_quaternion"), "messages"),
-}
-
-
-def __getattr__(name: str) -> Any:
-    home = _HOMES.get(name)
-    if home is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return getattr(import_module(f"{__name__}.{home}"), name)
-
-
-__all__ = [
-    "IMAGE",
-    "PATH",
-    "POSE_STAMPED",
-    "BytesAdapter",
-    "Output",
-    "Ros2Bridge",
-    "Ros2Options",
-    "UpdateAdapter",
-    "adapter",
-    "adapter_names",
-    "default_namespace",
-    "header",
-    "message_class",
-    "register_adapter",
-    "ros_type",
-    "yaw_quaternion",
-]
+from wiswarm_zenoh.ros2.adapters import BytesAdapter as BytesAdapter
+from wiswarm_zenoh.ros2.adapters import Output as Output
+from wiswarm_zenoh.ros2.adapters import UpdateAdapter as UpdateAdapter
+from wiswarm_zenoh.ros2.adapters import adapter as adapter
+from wiswarm_zenoh.ros2.adapters import adapter_names as adapter_names
+from wiswarm_zenoh.ros2.adapters import register_adapter as register_adapter
+from wiswarm_zenoh.ros2.bridge import Ros2Bridge as Ros2Bridge
+from wiswarm_zenoh.ros2.bridge import Ros2Options as Ros2Options
+from wiswarm_zenoh.ros2.bridge import default_namespace as default_namespace
+from wiswarm_zenoh.ros2.messages import IMAGE as IMAGE
+from wiswarm_zenoh.ros2.messages import PATH as PATH
+from wiswarm_zenoh.ros2.messages import POSE_STAMPED as POSE_STAMPED
+from wiswarm_zenoh.ros2.messages import header as header
+from wiswarm_zenoh.ros2.messages import message_class as message_class
+from wiswarm_zenoh.ros2.messages import ros_type as ros_type
+from wiswarm_zenoh.ros2.messages import yaw_quaternion as yaw_quaternion

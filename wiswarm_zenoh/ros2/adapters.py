@@ -40,9 +40,8 @@ class UpdateAdapter(Protocol):
 class BytesAdapter:
     """Each update as its bytes (no header: the type has none)."""
 
-    outputs = (Output("update", UPDATE_BYTES),)
-
     def __init__(self) -> None:
+        self.outputs = (Output("update", UPDATE_BYTES),)  # checked when made: the ros2 extra
         types = [message_class(f"std_msgs/msg/{name}") for name in ("MultiArrayLayout",
                                                                     "UInt8MultiArray")]
         self._layout, self._message = types[0](dim=[], data_offset=0), types[1]

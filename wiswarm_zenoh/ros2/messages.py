@@ -1,6 +1,7 @@
 """ROS 2 message types through ``rosbags``: CDR bytes, RIHS01 type hashes and the DDS
 type names that rmw_zenoh puts in its keys, from one store of the standard messages
-(Jazzy's), so no encoder or hash is written by hand here."""
+(Jazzy's), so no encoder or hash is written by hand here. The store (rosbags: the ros2
+extra, tens of MB) is loaded when a type is first used, not when this module is."""
 
 from __future__ import annotations
 
@@ -9,9 +10,8 @@ from dataclasses import dataclass
 from functools import cache
 from typing import Any
 
-from rosbags.typesys import Stores, get_typestore
+from wiswarm_zenoh.extras import require
 
-_STORE = get_typestore(Stores.ROS2_JAZZY)
 NS_PER_S = 1_000_000_000
 
 UPDATE_BYTES = "std_msgs/msg/UInt8MultiArray"
@@ -36,29 +36,39 @@ class RosType:
 
 
 @cache
+def _store() -> Any:
+    """The standard messages' store; MissingExtra without the ros2 extra."""
+    require("ros2")
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_JAZZY)
+
+
+@cache
 def ros_type(name: str) -> RosType:
     """The type ``name`` (``pkg/msg/Name``); ValueError for a type the store lacks."""
-    if name not in _STORE.types:
+    if name not in _store().types:
         raise ValueError(f"unknown ROS 2 message type {name!r}")
     pkg, kind, short = name.split("/")
-    return RosType(name, f"{pkg}::{kind}::dds_::{short}_", _STORE.hash_rihs01(name))
+    return RosType(name, f"{pkg}::{kind}::dds_::{short}_", _store().hash_rihs01(name))
 
 
 def message_class(name: str) -> Any:
     """The class of ``name``'s messages (a dataclass; fields as in the .msg file)."""
     ros_type(name)
-    return _STORE.types[name]
+    return _store().types[name]
 
 
 def serialize(message: Any, name: str) -> bytes:
     """CDR bytes (with their encapsulation header) of ``message``, of type ``name``."""
-    return bytes(_STORE.serialize_cdr(message, name))
+    return bytes(_store().serialize_cdr(message, name))
 
 
 def deserialize(data: bytes, name: str) -> Any:
     """The message of type ``name`` in ``data``; MessageError for anything else."""
+    store = _store()
     try:
-        return _STORE.deserialize_cdr(data, name)
+        return store.deserialize_cdr(data, name)
     except Exception as exc:  # rosbags raises several types on truncated or odd bytes
         raise MessageError(f"not a CDR {name}: {exc}") from None
 

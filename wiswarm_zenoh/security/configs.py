@@ -16,9 +16,10 @@ from typing import Any
 import zenoh
 
 from wiswarm_zenoh.security.acl import Roster, access_control
-from wiswarm_zenoh.security.pki import CA_CERT
 
 DEFAULT_PORT = 7447
+CA_CERT = "ca.pem"  # the swarm's CA in its directory (``pki`` writes it)
+CA_KEY = "ca-key.pem"
 
 
 def _tls(directory: Path, stem: str, listens: bool) -> dict[str, Any]:

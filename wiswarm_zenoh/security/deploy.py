@@ -2,7 +2,8 @@
 parameters ``init`` was given (``security.json``), so a follower added later gets the
 same hosts, endpoints and lifetime, and the router's rules are rebuilt whole.
 
-Every config is rendered (and so checked by Zenoh) before any file is written.
+Every config is rendered (and so checked by Zenoh) before any file is written. The
+certificates are made with ``pki`` (cryptography, the security extra), loaded then.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ import os
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
-from wiswarm_zenoh.security import configs, pki
+from wiswarm_zenoh.extras import require
+from wiswarm_zenoh.security import configs
 from wiswarm_zenoh.security.acl import ROUTER, Roster
 
 STATE = "security.json"
@@ -75,8 +77,11 @@ def _write(directory: Path, plan: Plan, texts: dict[str, str]) -> list[Path]:
 def init(directory: Path, plan: Plan) -> list[Path]:
     """A new CA, certificates and configs in ``directory``; an existing swarm there is
     kept (FileExistsError): a new CA would lock its nodes out."""
+    require("security")
+    from wiswarm_zenoh.security import pki
+
     directory = directory.resolve()
-    if (directory / STATE).exists() or (directory / pki.CA_KEY).exists():
+    if (directory / STATE).exists() or (directory / configs.CA_KEY).exists():
         raise FileExistsError(f"{directory} already holds a swarm's CA: use add-follower, "
                               "or another directory")
     texts = _rendered(directory, plan, plan.roster.nodes)
@@ -98,6 +103,9 @@ def load(directory: Path) -> Plan:
 def add_follower(directory: Path, follower: str) -> list[Path]:
     """A certificate and config for ``follower``, signed by the swarm's CA, and the
     router's config rewritten with rules that include it."""
+    require("security")
+    from wiswarm_zenoh.security import pki
+
     directory = directory.resolve()
     plan = load(directory)
     roster = plan.roster

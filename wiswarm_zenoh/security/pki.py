@@ -19,8 +19,8 @@ from cryptography.hazmat.primitives import hashes, serialization
 from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
-CA_CERT = "ca.pem"
-CA_KEY = "ca-key.pem"
+from wiswarm_zenoh.security.configs import CA_CERT, CA_KEY
+
 LOCAL_NAMES = ("localhost", "127.0.0.1")
 SKEW = datetime.timedelta(minutes=5)  # certificates start a little early: clocks differ
 

@@ -1,4 +1,8 @@
-"""``wiswarm demo``: the tracking application end to end (``make demo``).
+"""``wiswarm demo`` and ``wiswarm experiment tracking``: the tracking application's
+commands. Registering them loads no more than their flags: the application (OpenCV,
+pymavlink: the tracking extra) loads when one runs.
+
+``wiswarm demo`` runs the application end to end (``make demo``).
 
 By default WiSwarm and then the push baseline (50 frames/s) fly the same world, each
 over a 20 Mbit/s shared link in user space (no root), and the two are compared:
@@ -13,43 +17,26 @@ over a 20 Mbit/s shared link in user space (no root), and the two are compared:
 from __future__ import annotations
 
 import argparse
-import dataclasses
-import logging
-import time
-from pathlib import Path
+from typing import Any
 
-from wiswarm_apps.tracking import demo
-from wiswarm_apps.tracking.plots import write_comparison, write_plots
-from wiswarm_apps.tracking.report import (
-    compare,
-    comparison_lines,
-    summarise,
-    summary_lines,
-    write_outputs,
-    write_summary,
-)
-from wiswarm_apps.tracking.ros2 import FrameAdapter
-from wiswarm_apps.tracking.uav_app import SYSTEMS, System
-from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS
+from wiswarm_apps.tracking.kinds import FRAME_SIZES, SYSTEMS, VEHICLE_KINDS
 from wiswarm_apps.tracking.world import MOTIONS
 from wiswarm_zenoh.core import POLICIES
 from wiswarm_zenoh.dashboard import DEFAULT_PORT
 from wiswarm_zenoh.options import (
+    COUNTS,
     RATE,
     SEED,
     TIME,
     ArgType,
-    UsageError,
+    add_channel_arguments,
+    add_rate_grid,
     add_ros2_arguments,
     finite_float,
-    format_rate,
     positive_float,
     positive_int,
-    require_testbed,
-    ros2_options,
     writable_dir,
 )
-from wiswarm_zenoh.testbed import ChannelSpec, WifiSpec
 
 CHANNELS = ("user", "tbf", "wifi", "none")
 
@@ -59,9 +46,6 @@ def _channel(text: str) -> str:
         raise ValueError(f"{text[:60]!r} is not one of {', '.join(CHANNELS)} (a rate goes "
                          "in --channel-rate)")
     return text
-
-
-log = logging.getLogger(__name__)
 
 
 def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
@@ -77,7 +61,7 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         help="camera frames/s per UAV (default 100 wiswarm, 50 push)")
     parser.add_argument("--out", type=writable_dir(), default=None, metavar="DIR",
                         help="output directory (default runs/<timestamp>)")
-    parser.add_argument("--frame-size", type=int, choices=demo.FRAME_SIZES, default=224,
+    parser.add_argument("--frame-size", type=int, choices=FRAME_SIZES, default=224,
                         help="square frame side in pixels (224 stationary, 160 flight)")
     parser.add_argument("--vehicle", choices=VEHICLE_KINDS, default="virtual",
                         help="virtual UAVs, or MAVLink to a simulated vehicle on loopback")
@@ -118,102 +102,48 @@ def register(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) ->
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add_demo_arguments(parser)
-    parser.set_defaults(func=run_demo)
+    parser.set_defaults(func=_demo, needs="tracking")
 
 
-def options_from(args: argparse.Namespace, system: System = "wiswarm",
-                 out: Path | None = None) -> demo.DemoOptions:
-    """The run of ``system`` that the flags describe (UsageError if a value is bad);
-    with ``out``, the run is recorded to ``out/run.mcap``."""
-    try:
-        channel = (None if args.channel == "none" else WifiSpec() if args.channel == "wifi"
-                   else ChannelSpec(rate_bps=args.channel_rate, queue_s=args.channel_queue))
-        system = args.system or system
-        ros2 = ros2_options(args) if system == "wiswarm" else None
-        if ros2 is not None and ros2.adapter is None:
-            ros2 = dataclasses.replace(ros2, adapter=FrameAdapter())
-        return demo.DemoOptions(
-            uavs=args.uavs, duration_s=args.duration, seed=args.seed,
-            system=system, rate_hz=args.rate, frame_px=args.frame_size,
-            vehicle=args.vehicle, motion=args.motion, mode=args.mode, policy=args.policy,
-            warmup_s=args.warmup, live=not args.no_live, channel=channel,
-            channel_kind="user" if args.channel == "none" else args.channel, ros2=ros2,
-            mcap=None if out is None else out / "run.mcap",
-            dashboard_port=(None if args.no_dashboard or args.channel in ("tbf", "wifi")
-                            else DEFAULT_PORT),
-        )
-    except ValueError as exc:
-        raise UsageError(str(exc)) from None
+def _demo(args: argparse.Namespace) -> int:
+    from wiswarm_apps.tracking.demo_runs import run_demo  # the application itself
+
+    return run_demo(args)
 
 
-def crossing(options: demo.DemoOptions) -> str:
-    """What the run's traffic crosses, for people."""
-    spec = options.channel
-    if spec is None:
-        return "bare loopback (nothing scarce)"
-    if isinstance(spec, WifiSpec):
-        return f"the WiFi medium, a station per UAV ({spec.describe()})"
-    kind = ("shared link in user space" if options.channel_kind == "user"
-            else "tbf channel between network namespaces")
-    return f"a {format_rate(spec.rate_bps)} {kind} ({spec.queue_s * 1e3:g} ms queue)"
+STUDY = """The paper's flight study (Figs. 8/9) on real processes, the UAVs behind the
+emulated channel.
+
+For every N: the tracking demo with WiSwarm, with push at the fixed rate (50 fps) and
+with push at its best rate of the paper's grid, chosen as the paper chose it, by
+tracking error (the same search as the stationary study's, from the channel's share of
+each UAV). Runs go one at a time: the leader's vision is what uses the CPU. Writes
+``runs.csv``, ``tracking_error.png``, ``aoi.png`` and ``tracking.md``.
+"""
 
 
-def run_demo(args: argparse.Namespace) -> int:
-    """Run one system, or each in turn in the same world; print the summary (side by
-    side for several), write the files; 1 if a UAV handed back nothing."""
-    out: Path = args.out or Path("runs") / time.strftime("%Y%m%d-%H%M%S")
-    systems = (args.system,) if args.system else SYSTEMS
-    where = {system: out if len(systems) == 1 else out / system for system in systems}
-    runs = [options_from(args, system, where[system]) for system in systems]
-    if runs[0].namespaces:
-        require_testbed()
-    for directory in where.values():  # each run's recording goes there as it runs
-        directory.mkdir(parents=True, exist_ok=True)
-    if len(runs) == 1:
-        return _run_one(runs[0], out, gif=not args.no_gif)
-    done: list[demo.DemoRun] = []
-    summaries: dict[str, dict[str, object]] = {}
-    for k, options in enumerate(runs, 1):
-        print(f"run {k} of {len(runs)}: {options.system} at {options.rate:g} frames/s, "
-              f"{options.uavs} UAVs, {options.duration_s:g} s over {crossing(options)}",
-              flush=True)
-        run = demo.run(options)
-        summary = summarise(run)
-        write_outputs(out / options.system, run, summary)
-        write_plots(out / options.system, run, gif=False)
-        print("\n".join(summary_lines(summary)), flush=True)
-        done.append(run)
-        summaries[options.system] = summary
-        if run.measured_s < options.duration_s:  # cut short (Ctrl-C): no more runs
-            break
-    comparison = compare(summaries)
-    title = f"{runs[0].uavs} UAVs over {crossing(runs[0])}, same world and seed"
-    paths = [write_summary(out, comparison),
-             *write_comparison(out, done, title, gif=not args.no_gif)]
-    print(f"\n{title}:")
-    print("\n".join(comparison_lines(comparison)))
-    print(f"wrote {', '.join(p.name for p in paths)} in {out} (each run's files in "
-          f"{', '.join(f'{system}/' for system in summaries)})")
-    return _missing(done)
+def register_tracking(studies: Any) -> None:
+    """Add ``experiment tracking`` to the ``experiment`` group."""
+    parser = studies.add_parser(
+        "tracking", help="the flight study: tracking error and AoI against N over a channel",
+        description=STUDY, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--ns", type=COUNTS, default=(1, 2, 3, 4, 5),
+                        help="numbers of UAVs (default 1,2,3,4,5)")
+    add_rate_grid(parser, "push's")
+    parser.add_argument("--duration", type=positive_float(), default=20.0,
+                        help="seconds measured per run (default 20)")
+    parser.add_argument("--seed", type=SEED, default=0, help="seed of the world (default 0)")
+    parser.add_argument("--frame-size", type=int, choices=FRAME_SIZES, default=224,
+                        help="square frame side in pixels (default 224)")
+    parser.add_argument("--out", type=writable_dir(), metavar="DIR",
+                        help="output directory (runs/tracking-<timestamp>)")
+    add_channel_arguments(parser)
+    parser.set_defaults(func=_tracking, needs="tracking")
 
 
-def _run_one(options: demo.DemoOptions, out: Path, gif: bool) -> int:
-    print(f"{options.system} at {options.rate:g} frames/s, {options.uavs} UAVs, "
-          f"{options.duration_s:g} s over {crossing(options)}", flush=True)
-    run = demo.run(options)
-    summary = summarise(run)
-    paths = [*write_outputs(out, run, summary), out / "run.mcap"]
-    paths += write_plots(out, run, gif=gif)
-    print("\n".join(summary_lines(summary)))
-    print(f"wrote {', '.join(p.name for p in paths)} in {out}")
-    return _missing([run])
+def _tracking(args: argparse.Namespace) -> int:
+    from wiswarm_apps.tracking.study import run_tracking  # the application itself
+
+    return run_tracking(args)
 
 
-def _missing(runs: list[demo.DemoRun]) -> int:
-    """1, with the UAVs named, if any run lacks a UAV's measurements."""
-    missing = sorted({f"{run.options.system} {uav}" for run in runs
-                      for uav in set(run.options.uav_ids) - set(run.uavs)})
-    if missing:
-        log.error("no measurements from %s", ", ".join(missing))
-        return 1
-    return 0

@@ -31,13 +31,13 @@ import zenoh
 
 from wiswarm_apps.tracking.board import TrackingBoard, table_lines
 from wiswarm_apps.tracking.geometry import CameraModel
+from wiswarm_apps.tracking.kinds import FRAME_SIZES, SYSTEMS, VEHICLE_KINDS, System, VehicleKind
 from wiswarm_apps.tracking.leader_app import CarEstimate, ControlSink, VisionLoop, VisionStats
 from wiswarm_apps.tracking.push import PushLeader
 from wiswarm_apps.tracking.reception import AoISummary, DeliveryRow, Reception
 from wiswarm_apps.tracking.ros2 import CarMarkers, FrameAdapter
 from wiswarm_apps.tracking.tracker import TrackerConfig
-from wiswarm_apps.tracking.uav_app import SYSTEMS, System, UavLink, UavOptions, UavResult, run_uav
-from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS, VehicleKind
+from wiswarm_apps.tracking.uav_app import UavLink, UavOptions, UavResult, run_uav
 from wiswarm_apps.tracking.world import MOTIONS, Motion, WorldConfig
 from wiswarm_zenoh import Leader, LeaderConfig
 from wiswarm_zenoh.core import POLICIES
@@ -65,7 +65,6 @@ SWARM = "tracking"
 RESULT_TIMEOUT_S = 15.0
 CHECK_PERIOD = 0.25  # seconds between checks, while waiting for results, that UAVs live
 DEFAULT_RATE = {"wiswarm": 100.0, "push": 50.0}  # the paper: 100 fps LIFO, 50 fps FIFO
-FRAME_SIZES = (224, 160)  # stationary runs / flights
 ChannelKind = Literal["user", "tbf", "wifi"]
 CHANNEL_KINDS: tuple[ChannelKind, ...] = ("user", "tbf", "wifi")
 

@@ -1,12 +1,5 @@
-"""``wiswarm experiment tracking``: the paper's flight study (Figs. 8/9) on real processes,
-the UAVs behind the emulated channel.
-
-For every N: the tracking demo with WiSwarm, with push at the fixed rate (50 fps) and
-with push at its best rate of the paper's grid, chosen as the paper chose it, by
-tracking error (the same search as the stationary study's, from the channel's share of
-each UAV). Runs go one at a time: the leader's vision is what uses the CPU. Writes
-``runs.csv``, ``tracking_error.png``, ``aoi.png`` and ``tracking.md``.
-"""
+"""The flight study's runs and files (``wiswarm experiment tracking``; its flags and
+what it does are in ``cli``): the demo over the channel for every N and system."""
 
 from __future__ import annotations
 
@@ -17,24 +10,17 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 from wiswarm_apps.tracking import demo
 from wiswarm_apps.tracking.report import summarise
 from wiswarm_zenoh.experiments import best_of_grid, share_fps
 from wiswarm_zenoh.options import (
-    COUNTS,
-    SEED,
     ProgressBar,
     UsageError,
-    add_channel_arguments,
-    add_rate_grid,
     channel_spec,
     format_rate,
-    positive_float,
     require_testbed,
     show_written,
-    writable_dir,
 )
 from wiswarm_zenoh.testbed import ChannelSpec
 
@@ -160,7 +146,8 @@ def _table(rows: list[Row], shown: tuple[str, ...], title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _tracking(args: argparse.Namespace) -> int:
+def run_tracking(args: argparse.Namespace) -> int:
+    """``wiswarm experiment tracking`` with the flags ``cli.register_tracking`` made."""
     channel = channel_spec(args)
     try:
         base = demo.DemoOptions(duration_s=args.duration, seed=args.seed, channel=channel,
@@ -180,22 +167,3 @@ def _tracking(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         interrupted = True
     return show_written(write_files(out, study.rows, title, args.fixed_rate), interrupted)
-
-
-def register_tracking(studies: Any) -> None:
-    """Add ``experiment tracking`` to the ``experiment`` group."""
-    parser = studies.add_parser(
-        "tracking", help="the flight study: tracking error and AoI against N over a channel",
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--ns", type=COUNTS, default=(1, 2, 3, 4, 5),
-                        help="numbers of UAVs (default 1,2,3,4,5)")
-    add_rate_grid(parser, "push's")
-    parser.add_argument("--duration", type=positive_float(), default=20.0,
-                        help="seconds measured per run (default 20)")
-    parser.add_argument("--seed", type=SEED, default=0, help="seed of the world (default 0)")
-    parser.add_argument("--frame-size", type=int, choices=demo.FRAME_SIZES, default=224,
-                        help="square frame side in pixels (default 224)")
-    parser.add_argument("--out", type=writable_dir(), metavar="DIR",
-                        help="output directory (runs/tracking-<timestamp>)")
-    add_channel_arguments(parser)
-    parser.set_defaults(func=_tracking)

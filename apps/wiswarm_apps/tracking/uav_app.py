@@ -24,16 +24,16 @@ from collections.abc import Callable
 from contextlib import ExitStack
 from dataclasses import asdict, dataclass, field
 from multiprocessing.connection import Connection
-from typing import Literal
 
 import numpy as np
 import zenoh
 
 from wiswarm_apps.tracking.frames import encode_frame
 from wiswarm_apps.tracking.geometry import CameraModel, Pose
+from wiswarm_apps.tracking.kinds import SYSTEMS, VEHICLE_KINDS, System, VehicleKind
 from wiswarm_apps.tracking.metrics import UavMetrics
 from wiswarm_apps.tracking.render import Renderer
-from wiswarm_apps.tracking.vehicles import VEHICLE_KINDS, Vehicle, VehicleKind, open_vehicle
+from wiswarm_apps.tracking.vehicles import Vehicle, open_vehicle
 from wiswarm_apps.tracking.world import World, WorldConfig
 from wiswarm_zenoh import Follower, FollowerConfig, Waypoint
 from wiswarm_zenoh.baselines import DEFAULT_CAPACITY, PushSender
@@ -48,8 +48,6 @@ from wiswarm_zenoh.transport import BadInputLog, ControlListener, SessionSpec, S
 
 log = logging.getLogger(__name__)
 
-System = Literal["wiswarm", "push"]
-SYSTEMS: tuple[System, ...] = ("wiswarm", "push")
 TRACKING_LEAF = "tracking"
 START_OFFSET_M = (0.3, -0.2)  # the UAV starts near its car, not exactly above it
 SAMPLE_FIELDS = ("t", "uav_x", "uav_y", "uav_z", "uav_yaw", "car_x", "car_y", "error_m", "error_px",

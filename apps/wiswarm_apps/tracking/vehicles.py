@@ -9,18 +9,16 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Literal
 
 from wiswarm_apps.tracking.frames import Frame
 from wiswarm_apps.tracking.geometry import CameraModel, Pose, world_to_ned, yaw_to_ned
+from wiswarm_apps.tracking.kinds import VEHICLE_KINDS, VehicleKind
 from wiswarm_apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
 from wiswarm_apps.tracking.render import Renderer
 from wiswarm_apps.tracking.sim_vehicle import SimVehicle
 from wiswarm_apps.tracking.uav import VirtualUAV
 from wiswarm_apps.tracking.waypoints import WaypointGuard
 
-VehicleKind = Literal["virtual", "mavlink-sim"]
-VEHICLE_KINDS: tuple[VehicleKind, ...] = ("virtual", "mavlink-sim")
 CONNECT_TIMEOUT_S = 10.0
 
 
