@@ -15,4 +15,4 @@ def test_the_build_asked_for_is_the_one_tested() -> None:
     if asked is None:
         pytest.skip("no build asked for (WISWARM_CORE_BUILD): whichever is installed")
     assert asked in ("pure", "compiled")
-    assert COMPILED == (asked == "compiled")
+    assert (asked == "compiled") == COMPILED

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import random
 from collections import deque
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.errors import WireError
@@ -62,7 +62,9 @@ class Leader:
         self.policy = make_policy(self.config.policy, rng)
         self.table = PeerTable(self.config.weight_floor, self.config.price_by_time,
                                self.config.pace_sources)
-        self._pacing = self.config.pace_sources and isinstance(self.policy, IndexPolicy)
+        # An index policy's pick can be made ahead (``scheduling.pick_after``); None: not.
+        self._indexed = self.policy if isinstance(self.policy, IndexPolicy) else None
+        self._pacing = self.config.pace_sources and self._indexed is not None
         self.unknown_replies = 0
         self.polls = 0
         self.fast_polls = 0  # polls sent on a pick made while the poll before was out
@@ -237,7 +239,8 @@ class Leader:
             return
         del self._flights[follower]
         self._answered_seq = request.poll_seq
-        self._complete(request, now, lambda: peer.answered(request.sent_at, reply, now))
+        before = peer.reliability.value
+        self._complete(request, now, peer, before, peer.answered(request.sent_at, reply, now))
         if self.tuner is not None:  # the answers that carry something are the throughput
             self.tuner.completed(reply.fragment is not None, now, len(self.table.ids))
 
@@ -270,9 +273,11 @@ class Leader:
         (then, with one out, the pick for after it is made), nobody is left to poll, or
         no poll can find anything new before ``get_timer()`` (every source paced and
         none due, no probe due: ``sources``)."""
-        out = self._flights
-        if len(out) >= self.polls_allowed or len(out) >= len(self.table.ids):
-            self._pick_ahead()
+        out, tuner = self._flights, self.tuner
+        allowed = self._fixed_in_flight if tuner is None else tuner.current  # polls_allowed
+        if len(out) >= allowed or len(out) >= len(self.table.ids):
+            if allowed == 1:
+                self._pick_ahead()
             return None
         if self._waits_for_sources(now):
             return None
@@ -280,9 +285,9 @@ class Leader:
         if not out and pick is not None and pick.poll_seq == self._answered_seq \
                 and still_holds(pick, self.table, now):
             self.fast_polls += 1
-            return self._start_poll(pick.choice, now)
+            return self._start_poll(pick.choice, now, allowed == 1)
         return self._start_poll(choose(self.table, self.policy, self.slot, now,
-                                       {self.table.index(f) for f in out}), now)
+                                       {self.table.index(f) for f in out}), now, allowed == 1)
 
     def next_event(self) -> Event | None:
         """What happened, oldest first; None when nothing is left."""
@@ -339,38 +344,39 @@ class Leader:
         request, peer = flight.request, flight.peer
         del self._flights[request.follower]
         self._pick = None
-        self._complete(request, now, lambda: peer.unanswered(request.poll_seq,
-                                                             request.sent_at, now))
+        before = peer.reliability.value
+        self._complete(request, now, peer, before,
+                       peer.unanswered(request.poll_seq, request.sent_at, now))
         if self.tuner is not None:
             self.tuner.completed(False, now, len(self.table.ids))
 
-    def _complete(self, request: PollRequest, now: float, outcome: Callable[[], list[Event]],
-                  ) -> None:
-        """The poll ``request`` is over: the slot, the follower's ``outcome`` (its
-        events), and the p it shares with a site's other followers."""
+    def _complete(self, request: PollRequest, now: float, peer: Peer, before: float,
+                  outcome: list[Event]) -> None:
+        """The poll ``request`` of ``peer`` is over: the slot, the follower's ``outcome``
+        (its events), and the p it shares with a site's other followers (its p was
+        ``before`` the outcome)."""
         duration = max(now - request.sent_at, 1e-6)
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
-        peer = self.table.peers[request.follower]
-        before = peer.reliability.value
-        self._events.extend(outcome())
+        self._events.extend(outcome)
         if peer.reliability.value != before:
             self._events.extend(self.site_links.shared_change(
                 request.follower, before, self.table, self.config.window, now))
 
     def _pick_ahead(self) -> None:
         """With one poll out (the paper's rule), whom to poll after it (once per poll)."""
-        if len(self._flights) != 1 or self.polls_allowed != 1:
+        if len(self._flights) != 1 or self._indexed is None:
             return
         request = next(iter(self._flights.values())).request
         if self._picked_for == request.poll_seq:
             return
         self._picked_for = request.poll_seq
-        self._pick = pick_after(self.table, self.policy, self.slot, request.poll_seq,
+        self._pick = pick_after(self.table, self._indexed, self.slot, request.poll_seq,
                                 self.table.index(request.follower), request.sent_at + self.slot)
 
-    def _start_poll(self, choice: int, now: float) -> PollRequest:
+    def _start_poll(self, choice: int, now: float, one_allowed: bool) -> PollRequest:
         """Put a poll of the follower at ``choice`` in the table in flight, with the
-        control information if it changed or ``config.control_period`` has passed."""
+        control information if it changed or ``config.control_period`` has passed
+        (steady if ``one_allowed`` and it is the only one out, to a follower answering)."""
         follower = self.table.ids[choice]
         peer = self.table.peers[follower]
         self._poll_seq += 1
@@ -382,12 +388,13 @@ class Leader:
                 self._packed_control = pack_entries(self._waypoints)
             control, self._control_due, self._control_sent_at = self._packed_control, False, now
             self._control_seq += 1
-        poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
         timing = peer.timing
-        steady = not self._flights and self.polls_allowed == 1 and timing.unanswered == 0 \
-            and timing.measured and not peer.silent
+        steady = one_allowed and not self._flights and timing.unanswered == 0 \
+            and peer.reliability.value > 0.0 and timing.measured
         request = PollRequest(
-            follower, self._poll_seq, encode_poll(poll), now + timing.timeout, now,
+            follower, self._poll_seq, encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want,
+                                                       self.epoch)),
+            now + timing.timeout, now,
             self._control_seq, control, self.epoch, steady,
         )
         self._flights[follower] = Flight(request, peer)

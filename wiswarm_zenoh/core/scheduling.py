@@ -66,14 +66,14 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
     return policy.choose(wa, pa, array_ages_in_slots(taua, duea, intervala, now, slot))
 
 
-def pick_after(table: PeerTable, policy: Policy, slot: float, poll_seq: int, polled: int,
-               at: float) -> Pick | None:
+def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int,
+               polled: int, at: float) -> Pick | None:
     """Whom to poll after the poll ``poll_seq`` of the follower at ``polled``, if its
     reply comes at ``at``: the best of the others by the policy's index, with its value
     (to weigh the polled follower's new index against when the reply comes:
-    ``still_holds``). None when that cannot be decided ahead: a policy without an
-    index, a single follower, or a silent one (whose probes ``choose`` times)."""
-    if not isinstance(policy, IndexPolicy) or len(table) < 2 or table.silent:
+    ``still_holds``). None when that cannot be decided ahead: a single follower, or a
+    silent one (whose probes ``choose`` times)."""
+    if len(table) < 2 or table.silent:
         return None
     if table.plain_loops:
         values = policy.indices(table.w, table.p, _ages(table, at, slot))

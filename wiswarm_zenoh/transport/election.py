@@ -57,15 +57,22 @@ class Election:
         self._active = self.claim
         liveliness = session.liveliness()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
-        # Ask for the tokens already there before watching: a standby never starts active,
-        # and the watch's history (on another thread) then brings nothing new.
+        # Watch, then ask for the tokens already there: a standby never starts active.
+        # What the watch saw go meanwhile is not taken from the answer (asked first, a
+        # token that went before the watch began would never be seen to go, and this
+        # leader would stand by for ever behind one that left).
+        self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
+        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
+        there = set()
         for reply in liveliness.get(keys.leaders, timeout=ASK_TIMEOUT):
             if reply.ok is not None:
                 claim = _claim_of(str(reply.ok.key_expr), keys.swarm)
                 if claim is not None:
-                    self._claims.add(claim)
-        self._active = min(self._claims)
-        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
+                    there.add(claim)
+        with self._lock:
+            self._claims |= there - self._went
+            self._went = None
+            self._active = min(self._claims)
 
     @property
     def active(self) -> Claim:
@@ -83,6 +90,11 @@ class Election:
                         "ignored", sample.key_expr)
             return
         with self._lock:
+            if self._went is not None:
+                if sample.kind == zenoh.SampleKind.PUT:
+                    self._went.discard(claim)
+                else:
+                    self._went.add(claim)
             if sample.kind == zenoh.SampleKind.PUT:
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
@@ -105,6 +117,8 @@ class Election:
                 return
             elif claim != self.claim:  # our own token goes only when we close
                 self._claims.discard(claim)
+            if self._went is not None:  # still starting: the first verdict is made then
+                return
         self._judge()
 
     def _gone(self, claim: Claim) -> None:

@@ -85,13 +85,15 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._inbox: queue.SimpleQueue[Command] = queue.SimpleQueue()
         self._stop = threading.Event()
+        self._stopping = False  # ``_stop`` as a plain flag, read on every poll
         self.bad_input = BadInputLog(log)
         put = self._inbox.put
         self._membership = Membership(session, self.keys, self._leader, clock, put, self._reply,
                                       self._end, self.bad_input, forget_after, on_join, on_leave)
         self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
+        self._role_news = True  # the election may have changed its verdict: look
         self._role = LeaderRole(session, self.keys, self.name, self._leader,
-                                partial(put, None), on_role)
+                                self._role_changed, on_role)
         self._stats = StatsRounds(session, self.keys, stats_period, clock(), self.config.policy,
                                   self.name, every_record or bridge is not None)
         self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
@@ -158,6 +160,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     def close(self) -> None:
         """Stop polling (waits for the poll in flight) and undeclare everything."""
         self._stop.set()
+        self._stopping = True
         self._inbox.put(None)
         with self._lock:
             self._steady.close()  # lets go of a get a poll thread waits on
@@ -179,9 +182,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         leader, lock, inbox = self._leader, self._lock, self._inbox
         lock.acquire()
         try:
-            while not self._stop.is_set():
-                if self._role.changed:
-                    self._role.take(self._clock())
+            while not self._stopping:
+                if self._role_news:  # (a flag, not the election's lock, on every poll)
+                    self._role_news = False
+                    if self._role.changed:
+                        self._role.take(self._clock())
                 now = self._clock()
                 steady = None
                 while self._role.active and (request := leader.next_poll(now)) is not None:
@@ -192,7 +197,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                     self._publish_stats(now)
                 if now >= deliveries.due:
                     deliveries.flush()
-                self._steady.sweep(now)
+                if now >= self._steady.sweep_at:
+                    self._steady.sweep(now)
                 if steady is not None:  # the other poll thread keeps inbox and timer
                     self._steady.wait(steady, lock)
                     continue
@@ -215,6 +221,10 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
             self._hand_on()
             lock.release()
             inbox.put(None)  # the wake ``close`` sent may have been taken here: pass it on
+
+    def _role_changed(self) -> None:  # on Zenoh's thread
+        self._role_news = True
+        self._inbox.put(None)
 
     def _timer(self) -> None:
         self._leader.handle_timer(self._clock())

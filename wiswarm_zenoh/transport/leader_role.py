@@ -12,7 +12,7 @@ import zenoh
 from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.transport.election import Election
 from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.outlets import notify
+from wiswarm_zenoh.transport.notify import notify
 from wiswarm_zenoh.transport.standby import Handover
 from wiswarm_zenoh.units import format_epoch
 

@@ -22,7 +22,7 @@ from wiswarm_zenoh.transport.edge import site_of
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
-from wiswarm_zenoh.transport.outlets import notify
+from wiswarm_zenoh.transport.notify import notify
 
 log = logging.getLogger(__name__)
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
-from typing import TypeVar
 
 import zenoh
 
@@ -28,20 +27,12 @@ from wiswarm_zenoh.transport.delivery_stream import DeliveryStream
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
+from wiswarm_zenoh.transport.notify import notify
 from wiswarm_zenoh.transport.silence import SilenceLog
 from wiswarm_zenoh.transport.steady_gets import SteadyGet, SteadyGets
 from wiswarm_zenoh.transport.telemetry import fresh_attachment
 
 log = logging.getLogger("wiswarm_zenoh.transport.leader_node")
-T = TypeVar("T")
-
-
-def notify(callback: Callable[[T], object], arg: T) -> None:
-    """Run an application callback; its failure is logged, never the end of polling."""
-    try:
-        callback(arg)
-    except Exception:
-        log.exception("callback %r failed on %r", callback, arg)
 
 
 class Outlets:
@@ -78,7 +69,8 @@ class Outlets:
                 link = self._links.get(follower)
                 if link is not None and link.listening:
                     link.fresh.put(event.payload, attachment=fresh_attachment(event))
-                self.deliveries.add(event, event.delivered_at)
+                if self.deliveries.listening:
+                    self.deliveries.add(event, event.delivered_at)
                 if self.bridge is not None:
                     notify(self.bridge.deliver, event)
                 if self._on_delivery is not None:

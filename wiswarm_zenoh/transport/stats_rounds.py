@@ -17,7 +17,7 @@ from wiswarm_zenoh.transport.bridge import LeaderBridge
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
-from wiswarm_zenoh.transport.outlets import notify
+from wiswarm_zenoh.transport.notify import notify
 from wiswarm_zenoh.transport.telemetry import LeaderSummary, to_json
 
 STATS_PERIOD = 0.4  # seconds: the contract asks for at least 2 Hz; stats cost a percentile

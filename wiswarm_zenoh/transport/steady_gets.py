@@ -53,7 +53,7 @@ class SteadyGets:
         self.closed = False  # no more steady gets (the leader is closing)
         self._token: zenoh.CancellationToken | None = None  # that get's, for ``close``
         self._lingering: list[tuple[FollowerLink, zenoh.Handler[zenoh.Reply]]] = []
-        self._sweep_at = 0.0
+        self.sweep_at = 0.0  # when ``sweep`` is due next
 
     def send(self, link: FollowerLink, request: PollRequest) -> SteadyGet:
         token = zenoh.CancellationToken()
@@ -85,11 +85,10 @@ class SteadyGets:
             self.busy, self._token = False, None
 
     def sweep(self, now: float) -> None:
-        """What came since on the gets answered before (usually: only their end)."""
+        """What came since on the gets answered before (usually: only their end); due
+        every ``SWEEP_PERIOD``, not on every poll."""
         lingering = self._lingering
-        if not lingering or (len(lingering) > 1 and now < self._sweep_at):
-            return
-        self._sweep_at = now + SWEEP_PERIOD
+        self.sweep_at = now + SWEEP_PERIOD
         still = []
         for link, replies in lingering:
             try:
