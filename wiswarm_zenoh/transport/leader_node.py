@@ -176,7 +176,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    # --- the poll thread ---
+    # --- the poll threads ---
 
     def _run(self) -> None:
         leader, lock, inbox = self._leader, self._lock, self._inbox
@@ -214,9 +214,10 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                 while True:  # all that came meanwhile (a reply and its get's end: one wake)
                     if command is not None:
                         command()
-                    if inbox.empty():
+                    try:  # (the other poll thread, waiting on the inbox, may take it first)
+                        command = inbox.get_nowait()
+                    except queue.Empty:
                         break
-                    command = inbox.get_nowait()
         finally:
             self._hand_on()
             lock.release()
