@@ -185,6 +185,7 @@ class Window:
     mean_aoi: dict[str, float]
     timeouts: int  # polls that went unanswered, from the leader's stats (a round apart)
     pauses: Pauses
+    fast: int  # polls sent on the pick made while the poll before was out
 
 
 def window_figures(watch: Watch, followers: list[str], start: float,
@@ -238,13 +239,13 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             rss_joined = rss_bytes() - rss0
             time.sleep(args.warmup)
             timeouts0 = timeouts(node, session)  # before the window: the records cost CPU
-            t0, polls0 = time.time(), node.polls
+            t0, polls0, fast0 = time.time(), node.polls, node.fast_polls
             cpu0, thread0 = process_cpu(), thread_cpu(poll_threads)
             machine0 = machine_busy()
             pauses = Pauses()
             time.sleep(seconds)
             pauses.close()
-            t1, polls1 = time.time(), node.polls
+            t1, polls1, fast1 = time.time(), node.polls, node.fast_polls
             cpu1, thread1 = process_cpu(), thread_cpu(poll_threads)
             machine1 = machine_busy()
             rss_end = rss_bytes() - rss0
@@ -253,7 +254,7 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
     return joined, polled, rss_joined, rss_end, Window(
         t1 - t0, polls1 - polls0, cpu1 - cpu0, machine1 - machine0, thread1 - thread0,
         counts, means,
-        timeouts1 - timeouts0, pauses)
+        timeouts1 - timeouts0, pauses, fast1 - fast0)
 
 
 def timeouts(node: LeaderNode, session: zenoh.Session) -> int:
@@ -339,6 +340,8 @@ def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: f
           f"{s * 1e3:.3f} ms" + ("" if bare is None else
                                 f"   (bare get loop: {bare[0]:.0f} polls/s, S = "
                                 f"{1e3 / bare[0]:.3f} ms; leader/bare {rate / bare[0]:.2f})"))
+    print(f"  sent on the pick made while the poll before was out   "
+          f"{window.fast / max(window.polls, 1):6.1%}")
     gcs = window.pauses
     print(f"  polls unanswered (timed out)                  {window.timeouts:8d}       "
           f"leader's GC pauses: " + ", ".join(

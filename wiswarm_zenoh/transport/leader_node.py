@@ -203,7 +203,10 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                     self._steady.wait(steady, lock)
                     continue
                 timer = leader.get_timer()
-                wake_at = min(self._stats.due, deliveries.due, math.inf if timer is None else timer)
+                wake_at = math.inf if timer is None else timer
+                if timer is None or not self._steady.busy:  # else the thread waiting on a
+                    # steady get does the stats and the delivery stream between its polls
+                    wake_at = min(wake_at, self._stats.due, deliveries.due)
                 lock.release()
                 try:
                     command: Command = inbox.get(timeout=max(0.0, wake_at - now))
