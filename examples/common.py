@@ -43,6 +43,9 @@ def open_session(args: argparse.Namespace) -> zenoh.Session:
         config.insert_json5("listen/endpoints", json.dumps(args.listen))
     if args.no_multicast_scouting:
         config.insert_json5("scouting/multicast/enabled", "false")
+    # As wiswarm's nodes: a long-running leader would keep every departed follower's
+    # shared-memory segments mapped (docs/guides/swarm.md#shared-memory).
+    config.insert_json5("transport/shared_memory/enabled", "false")
     return zenoh.open(config)
 
 

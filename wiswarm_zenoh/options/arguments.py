@@ -264,7 +264,8 @@ KEY_VALUE = ArgType("key:value", _key_value)  # Zenoh judges the key and value l
 
 
 def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -> None:
-    """The session flags: -m/-e/-l/-c, --cfg KEY:VALUE, --no-multicast-scouting."""
+    """The session flags: -m/-e/-l/-c, --cfg KEY:VALUE, --no-multicast-scouting,
+    --shared-memory."""
     group = parser.add_argument_group("zenoh session")
     group.add_argument("-m", "--mode", choices=list(modes), help="the Zenoh session mode")
     group.add_argument("-e", "--connect", metavar="ENDPOINT", action="append", default=[],
@@ -283,6 +284,10 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -
                             "e.g. --cfg 'transport/unicast/max_links:2'")
     group.add_argument("--no-multicast-scouting", action="store_true",
                        help="do not discover peers and routers by multicast")
+    group.add_argument("--shared-memory", action="store_true",
+                       help="let Zenoh move payloads of 3 kB or more to processes on this "
+                            "host through shared memory (default off: a router or leader "
+                            "keeps every departed process's 17 MiB mapped)")
 
 
 def add_rate_grid(parser: argparse.ArgumentParser, whose: str) -> None:

@@ -5,6 +5,12 @@ Every problem (a bad endpoint, an unknown ``--cfg`` key, an unreadable ``-c`` fi
 session that cannot open) becomes one ``UsageError`` line: the user must fix a flag.
 Endpoints are checked before Zenoh sees them: it would take a bad one only at session
 open, or not at all (a peer retries a connect endpoint forever, in the background).
+
+Zenoh's shared memory is off unless asked for (``shared_memory``): with it, every
+process that sends to a router or leader on the same host leaves its 16 MiB pool and
+1.25 MiB metadata segment mapped there for as long as they run
+(eclipse-zenoh/zenoh#2787), and polling gains some 7 % from it, on one host only
+(docs/guides/swarm.md#shared-memory).
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from dataclasses import dataclass
 import zenoh
 
 from wiswarm_zenoh.security.checks import check_tls
+from wiswarm_zenoh.transport import shm_sweep
 from wiswarm_zenoh.usage import UsageError
 
 MODES = ("peer", "client", "router")
@@ -110,6 +117,7 @@ class SessionSpec:
     config_file: str | None = None
     cfg: tuple[str, ...] = ()
     multicast_scouting: bool = True
+    shared_memory: bool = False
 
     @classmethod
     def from_args(cls, args: argparse.Namespace, default_mode: str,
@@ -123,6 +131,7 @@ class SessionSpec:
             mode=args.mode or (None if args.config else default_mode),
             connect=tuple(connect), listen=tuple(args.listen), config_file=args.config,
             cfg=tuple(args.cfg), multicast_scouting=not args.no_multicast_scouting,
+            shared_memory=args.shared_memory,
         )
 
     @classmethod
@@ -146,7 +155,7 @@ class SessionSpec:
         return build_config(
             mode=self.mode, connect=self.connect, listen=self.listen,
             config_file=self.config_file, cfg=self.cfg,
-            multicast_scouting=self.multicast_scouting,
+            multicast_scouting=self.multicast_scouting, shared_memory=self.shared_memory,
         )
 
     def routers(self) -> list[str]:
@@ -160,8 +169,12 @@ class SessionSpec:
         return [str(e) for e in endpoints]
 
     def open(self) -> zenoh.Session:
-        """Open a session; a failure (endpoint in use, router unreachable) is a UsageError."""
+        """Open a session; a failure (endpoint in use, router unreachable) is a UsageError.
+        With shared memory on, what this process leaves in /dev/shm is swept once it ends
+        (``shm_sweep``)."""
         config = self.config()
+        if config.get_json(SHARED_MEMORY) == "true":
+            shm_sweep.watch()
         try:
             return zenoh.open(config)
         except zenoh.ZError as exc:
@@ -179,6 +192,7 @@ def _insert(config: zenoh.Config, key: str, value: str, origin: str) -> None:
 # to at most 500 ms (Zenoh's own default: 1 s to 4 s), so a restarted router is rejoined
 # within about half a second of listening again. A config file's own setting wins.
 RECONNECT = "{period_init_ms: 100, period_max_ms: 500, period_increase_factor: 2}"
+SHARED_MEMORY = "transport/shared_memory/enabled"
 
 
 def build_config(
@@ -189,8 +203,11 @@ def build_config(
     config_file: str | None = None,
     cfg: Sequence[str] = (),
     multicast_scouting: bool = True,
+    shared_memory: bool = False,
 ) -> zenoh.Config:
-    """A checked ``zenoh.Config``; flags override the file, ``--cfg`` overrides both."""
+    """A checked ``zenoh.Config``; flags override the file, ``--cfg`` overrides both.
+    Shared memory is as ``shared_memory`` says whatever the file says (Zenoh's default,
+    on, cannot be told from a file's own ``true``); ``--cfg`` may still set it."""
     if config_file is None:
         config = zenoh.Config()
     else:
@@ -217,6 +234,7 @@ def build_config(
         _insert(config, "listen/endpoints", json.dumps(list(listen)), "--listen")
     if not multicast_scouting:
         _insert(config, "scouting/multicast/enabled", "false", "--no-multicast-scouting")
+    _insert(config, SHARED_MEMORY, json.dumps(shared_memory), "--shared-memory")
     for item in cfg:
         try:
             key, value = split_key_value(item)
