@@ -143,8 +143,9 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
             end = start + seconds
         for reply in queriers[polls % len(queriers)].get(payload=poll):
             sample = reply.ok
-            if sample is not None:
-                size = len(sample.payload.to_bytes())
+            if sample is not None:  # the next get at once, as the leader sends it: over
+                size = len(sample.payload.to_bytes())  # TCP the get's end comes later
+                break
         polls += 1
     elapsed = time.perf_counter() - start
     for querier in queriers:

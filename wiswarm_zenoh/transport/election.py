@@ -55,7 +55,7 @@ class Election:
         self._leaving: dict[Claim, threading.Timer] = {}  # the active's token, gone lately
         self.flaps = 0  # times the active leader's token came back within the grace
         self._active = self.claim
-        liveliness = session.liveliness()
+        self._liveliness = liveliness = session.liveliness()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
         # Watch, then ask for the tokens already there: a standby never starts active.
         # What the watch saw go meanwhile is not taken from the answer (asked first, a
@@ -63,12 +63,7 @@ class Election:
         # leader would stand by for ever behind one that left).
         self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
-        there = set()
-        for reply in liveliness.get(keys.leaders, timeout=ASK_TIMEOUT):
-            if reply.ok is not None:
-                claim = _claim_of(str(reply.ok.key_expr), keys.swarm)
-                if claim is not None:
-                    there.add(claim)
+        there = self._there()
         with self._lock:
             self._claims |= there - self._went
             self._went = None
@@ -119,6 +114,29 @@ class Election:
                 self._claims.discard(claim)
             if self._went is not None:  # still starting: the first verdict is made then
                 return
+        self._judge()
+
+    def _there(self) -> set[Claim]:
+        """The leaders' claims whose tokens are there now."""
+        claims = set()
+        for reply in self._liveliness.get(self.keys.leaders, timeout=ASK_TIMEOUT):
+            if reply.ok is not None:
+                claim = _claim_of(str(reply.ok.key_expr), self.keys.swarm)
+                if claim is not None:
+                    claims.add(claim)
+        return claims
+
+    def recheck(self) -> None:
+        """Ask which leaders' tokens are there, and drop the claims whose token is not
+        (a token's going that the watch never saw, as when it went while the watch's
+        history was on its way, must not keep a standby standing by for ever)."""
+        there = self._there()
+        with self._lock:
+            stale = self._claims - there - {self.claim} - set(self._leaving)
+            if not stale:
+                return
+            self._claims -= stale
+        log.info("leader tokens gone unseen: %s", ", ".join(c[1] for c in sorted(stale)))
         self._judge()
 
     def _gone(self, claim: Claim) -> None:

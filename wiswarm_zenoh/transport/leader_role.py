@@ -54,9 +54,12 @@ class LeaderRole:
 
     def hold(self, now: float) -> None:
         """An active leader that hears an epoch as high as its own (two active across a
-        partition) rises above it."""
+        partition) rises above it; a standby makes sure the leader it stands by for is
+        still there."""
         if self.active and self._handover.epoch >= self._leader.epoch:
             self._rise(now, take_state=False)
+        elif not self.active:
+            self._election.recheck()
 
     def _rise(self, now: float, take_state: bool) -> None:
         heard, weights, control = self._handover.state()
