@@ -24,18 +24,17 @@ class Leader(Receiver[Delivered]):
     by default), and publishes the swarm's stats on ``wiswarm/<swarm>/...``.
 
     ``handler`` gets every fresh update (a ``Delivered``: follower, payload, times): a
-    callable runs on the poll thread, a ``FifoChannel`` or ``RingChannel`` is read with
-    ``recv``, ``try_recv`` or ``for delivery in leader``. ``on_join`` and ``on_leave``
-    get a follower's id as its liveliness token comes and goes, ``on_role`` True once
-    this leader polls and False while an older one does (any number may run: the
-    others stand by and take over). ``name`` tells leaders apart (default: host and
-    process id); ``bridge`` (``wiswarm_zenoh.ros2.Ros2Options``) mirrors the swarm to
-    ROS 2. ``stats_period`` (seconds between stats) and ``forget_after`` (how long a
-    departed follower's stats stay) default to the leader's own; ``epoch`` to the start
-    time in microseconds. ``config`` holds the policy, timeouts and control period.
-    Each follower's stats are made while someone subscribes to them, or every round with
-    ``every_record`` (for ``stats`` in this process).
-    """
+    callable runs on a poll thread (one call at a time), a ``FifoChannel`` or
+    ``RingChannel`` is read with ``recv``, ``try_recv`` or ``for delivery in leader``.
+    ``on_join`` and ``on_leave`` get a follower's id as its liveliness token comes and
+    goes, ``on_role`` True once this leader polls and False while an older one does (any
+    number may run: the others stand by and take over). ``name`` tells leaders apart
+    (default: host and process id); ``bridge`` (``wiswarm_zenoh.ros2.Ros2Options``)
+    mirrors the swarm to ROS 2. ``stats_period`` (seconds between stats) and
+    ``forget_after`` (how long a departed follower's stats stay) default to the leader's
+    own; ``epoch`` to the start time in microseconds. ``config`` holds the policy,
+    timeouts and control period. Each follower's stats are made while someone subscribes
+    to them, or every round with ``every_record`` (for ``stats`` in this process). """
 
     def __init__(
         self,
