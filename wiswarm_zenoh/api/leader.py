@@ -34,7 +34,7 @@ class Leader(Receiver[Delivered]):
     ``forget_after`` (how long a departed follower's stats stay) default to the leader's
     own; ``epoch`` to the start time in microseconds. ``config`` holds the policy,
     timeouts and control period. Each follower's stats are made while someone subscribes
-    to them, or every round with ``every_record`` (for ``stats`` in this process). """
+    to them, or every round with ``every_record`` (for ``stats`` in this process)."""
 
     def __init__(
         self,
