@@ -10,6 +10,7 @@ import zenoh
 
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 from .helpers import Recorder, Samples, Sessions, wait_until_known
 
@@ -112,3 +113,23 @@ def test_nodes_survive_a_router_restart(
         follower.offer(b"after")
         recorder.wait("delivery", lambda r: len(r.deliveries) == 2)
     assert recorder.deliveries[-1].payload == b"after"
+
+
+def test_a_router_failover_is_no_leave(
+    sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder
+) -> None:
+    """Two routers, every node a client given both: when the one carrying them dies, the
+    other takes them within milliseconds; the follower's token goes and comes back, and
+    the leader takes that for what it is, not for a leave and a join."""
+    second = free_tcp_port()
+    sessions.open(SessionSpec(mode="router", listen=(f"tcp/127.0.0.1:{second}",),
+                              connect=(f"tcp/127.0.0.1:{port}",), multicast_scouting=False))
+    both = SessionSpec.loopback("client", connect_ports=[port, second])
+    follower = FollowerNode(sessions.open(both), SWARM, "uav1")
+    with LeaderNode(sessions.open(both), SWARM, **recorder.callbacks()):
+        follower.offer(b"before")
+        recorder.wait("delivery", lambda r: len(r.deliveries) == 1)
+        router.close()  # the first endpoint's: both nodes are its clients
+        follower.offer(b"after")
+        recorder.wait("delivery over the other router", lambda r: len(r.deliveries) == 2)
+        assert recorder.joins == ["uav1"] and recorder.leaves == []

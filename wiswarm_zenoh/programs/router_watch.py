@@ -1,4 +1,5 @@
-"""Tells the user when a node loses its router and when it has one again.
+"""Tells the user when a node loses its router and when it has one again, and when
+another of its routers carries it after one died (a failover: said once, at WARNING).
 
 Zenoh reconnects by itself (``zenoh_config.RECONNECT``) but says little about it at the
 default log level; a node that is cut off from the swarm must say so, in its own log.
@@ -37,25 +38,35 @@ class RouterWatch:
         self._endpoints = list(endpoints)  # where its router should be (none: a peer)
         self._started = time.monotonic()
         self._unreached_said = False
-        self._connected = self._routers() > 0  # a peer with no router never warns
+        self._carried_by = self._router_ids()  # the routers it has now
+        self._connected = bool(self._carried_by)  # a peer with no router never warns
         self._reached = self._connected  # a router, or a peer at its endpoint, ever
         self._lost_at: float | None = None
 
     def _routers(self) -> int:
-        return sum(1 for _ in self._session.info.routers_zid())
+        return len(self._router_ids())
+
+    def _router_ids(self) -> set[str]:
+        return {str(zid) for zid in self._session.info.routers_zid()}
 
     def _anyone(self, routers: int) -> bool:
         """A router, or a peer reached at the node's endpoint (which counts too)."""
         return routers > 0 or any(True for _ in self._session.info.peers_zid())
 
     def check(self) -> None:
-        routers = self._routers()
+        ids = self._router_ids()
+        routers = len(ids)
+        gone = self._carried_by - ids
+        if gone and ids:  # one router died while another carries the node: a failover
+            log.warning("%s: router %s is gone; router %s carries it now", self._node,
+                        ", ".join(sorted(gone)), ", ".join(sorted(ids)))
+        self._carried_by = ids
         if not self._reached:
             self._reached = self._anyone(routers)
             self._check_first(self._reached)
         if routers and self._lost_at is not None:
-            log.warning("%s: router reached again after %.1f s", self._node,
-                        time.monotonic() - self._lost_at)
+            log.warning("%s: router reached again after %.1f s (router %s)", self._node,
+                        time.monotonic() - self._lost_at, ", ".join(sorted(ids)))
             self._lost_at = None
         elif not routers and self._connected and self._lost_at is None:
             self._lost_at = time.monotonic()

@@ -2,7 +2,9 @@
 
 A token's coming and going is posted on Zenoh's thread, as a command to the poll
 thread's inbox, and applied there, so the core changes only there. A follower whose
-token goes is polled no more, but its link stays open for ``forget_after`` seconds so
+token goes and stays away ``LEAVE_GRACE`` (a router failover brings it back over the
+other router within milliseconds: no leave, no join, its estimates as they were) is
+polled no more, but its link stays open for ``forget_after`` seconds so
 that its stats go on, its age growing (``present`` false): a site cut off upstream is
 not reported fresh. Back within that time it is taken up where it was; after it,
 forgotten.
@@ -11,6 +13,7 @@ forgotten.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Callable
 from functools import partial
 
@@ -27,6 +30,8 @@ from wiswarm_zenoh.transport.notify import notify
 log = logging.getLogger(__name__)
 
 FORGET_AFTER = 60.0  # seconds a follower that left stays in the stats, its age growing
+LEAVE_GRACE = 0.25  # seconds a token must stay away to count as a leave (a router
+# failover takes a token away and brings it back over the other router within ms)
 
 ReplyHandler = Callable[[FollowerLink, zenoh.Reply], None]
 EndHandler = Callable[[FollowerLink, int], None]  # a poll's get is over (its sequence)
@@ -54,6 +59,8 @@ class Membership:
         self.followers: list[str] = []  # those polled (a copy: read from any thread)
         self._on_join, self._on_leave = on_join, on_leave
         self._departed_at: dict[str, float] = {}  # followers gone, not forgotten yet
+        self._leaving: dict[str, threading.Timer] = {}  # tokens gone lately (the grace)
+        self._leaving_lock = threading.Lock()
         self._tokens = session.liveliness().declare_subscriber(keys.members, self._on_token,
                                                                history=True)
 
@@ -63,7 +70,29 @@ class Membership:
         if follower is None:
             self._bad_input.report(key, "not a valid member key")
             return
-        self._post(partial(self._change, follower, sample.kind == zenoh.SampleKind.PUT))
+        joined = sample.kind == zenoh.SampleKind.PUT
+        with self._leaving_lock:
+            leaving = self._leaving.pop(follower, None)
+            if leaving is not None:
+                leaving.cancel()
+                if joined:  # back within the grace: it never left (a router failover)
+                    log.info("follower %s's token went and came back within %.0f ms (a "
+                             "router failover?): still a member", follower, LEAVE_GRACE * 1e3)
+                    return
+            if not joined:
+                timer = threading.Timer(LEAVE_GRACE, self._left, (follower,))
+                timer.daemon = True
+                self._leaving[follower] = timer
+                timer.start()
+                return
+        self._post(partial(self._change, follower, True))
+
+    def _left(self, follower: str) -> None:
+        """Its token stayed away for the grace: it left."""
+        with self._leaving_lock:
+            if self._leaving.pop(follower, None) is None:
+                return  # it came back meanwhile
+        self._post(partial(self._change, follower, False))
 
     def _change(self, follower: str, joined: bool) -> None:
         """A token's change, on the poll thread, into the core; the application hears
@@ -101,6 +130,10 @@ class Membership:
 
     def close(self) -> None:
         undeclare(self._tokens)
+        with self._leaving_lock:
+            for timer in self._leaving.values():
+                timer.cancel()
+            self._leaving.clear()
         for link in self.links.values():
             link.close()
         self.links.clear()
