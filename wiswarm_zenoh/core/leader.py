@@ -8,6 +8,7 @@ from collections import deque
 from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
+from wiswarm_zenoh.core.control_schedule import ControlSchedule
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Event, Rejected, Stale, drain
 from wiswarm_zenoh.core.in_flight import InFlightTuner
@@ -20,10 +21,8 @@ from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
 from wiswarm_zenoh.core.wire import (
     Poll,
-    Waypoint,
     decode_reply,
     encode_poll,
-    pack_entries,
     validate_waypoints,
 )
 
@@ -70,11 +69,7 @@ class Leader:
         self.fast_polls = 0  # polls sent on a pick made while the poll before was out
         self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
         self._poll_seq = 0
-        self._control_seq = 0
-        self._waypoints: dict[str, list[Waypoint]] = {}
-        self._packed_control: bytes | None = None  # cache of the packed entries
-        self._control_due = True  # changed since last sent: goes with the next poll
-        self._control_sent_at = -math.inf
+        self._control = ControlSchedule(self.config.control_period)
         self._flights: dict[str, Flight] = {}  # the polls out, by follower
         self._events: deque[Event] = deque()
         self._pick: Pick | None = None
@@ -129,7 +124,7 @@ class Leader:
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._pick = None
-        self._control_due = True  # the newcomer needs the control now
+        self._control.changed()  # the newcomer needs the control now
         peer = self.table.peers.get(follower)
         if peer is not None:
             peer.restart()
@@ -157,8 +152,7 @@ class Leader:
         self.table.remove(follower)
         self.site_links.detach(follower)
         self._departed[follower] = peer
-        if self._waypoints.pop(follower, None) is not None:
-            self._packed_control = None
+        self._control.drop(follower)
 
     def forget_follower(self, follower: str) -> None:
         """Drop the record of a follower that left (the shell decides how long to keep
@@ -168,9 +162,7 @@ class Leader:
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """The application's latest control information for one follower."""
         self._peer(follower)
-        self._waypoints[follower] = validate_waypoints(waypoints)
-        self._packed_control = None
-        self._control_due = True
+        self._control.set(follower, waypoints)
 
     def rise_above(self, heard: int, now: float, weights: Mapping[str, float] | None = None,
                    control: Mapping[str, Sequence[Sequence[float]]] | None = None) -> int:
@@ -197,9 +189,8 @@ class Leader:
                 peer.set_weight(weight)
         for follower, waypoints in control.items():
             if follower in self.table.peers:
-                self._waypoints[follower] = validate_waypoints(waypoints)
-        self._packed_control = None
-        self._control_due = True  # the followers learn the new epoch at once
+                self._control.waypoints[follower] = validate_waypoints(waypoints)
+        self._control.changed()  # the followers learn the new epoch at once
         self._pick = None
 
     def observe_urgency(self, follower: str, v: float) -> float:
@@ -273,8 +264,7 @@ class Leader:
         (then, with one out, the pick for after it is made), nobody is left to poll, or
         no poll can find anything new before ``get_timer()`` (every source paced and
         none due, no probe due: ``sources``)."""
-        out, tuner = self._flights, self.tuner
-        allowed = self._fixed_in_flight if tuner is None else tuner.current  # polls_allowed
+        out, allowed = self._flights, self.polls_allowed
         if len(out) >= allowed or len(out) >= len(self.table.ids):
             if allowed == 1:
                 self._pick_ahead()
@@ -382,20 +372,14 @@ class Leader:
         self._poll_seq += 1
         self.polls += 1
         peer.polled()
-        control = None
-        if self._control_due or now - self._control_sent_at >= self.config.control_period:
-            if self._packed_control is None:
-                self._packed_control = pack_entries(self._waypoints)
-            control, self._control_due, self._control_sent_at = self._packed_control, False, now
-            self._control_seq += 1
+        control = self._control.take(now)
         timing = peer.timing
         steady = one_allowed and not self._flights and timing.unanswered == 0 \
-            and peer.reliability.value > 0.0 and timing.measured
+            and not peer.silent and timing.measured
+        poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
         request = PollRequest(
-            follower, self._poll_seq, encode_poll(Poll(self._poll_seq, now, peer.ack, peer.want,
-                                                       self.epoch)),
-            now + timing.timeout, now,
-            self._control_seq, control, self.epoch, steady,
+            follower, self._poll_seq, encode_poll(poll), now + timing.timeout, now,
+            self._control.seq, control, self.epoch, steady,
         )
         self._flights[follower] = Flight(request, peer)
         return request
