@@ -74,7 +74,7 @@ class LeadersOptions:
             raise ValueError("an edge leads one swarm and names its site")
 
 
-class _Progress:
+class Progress:
     """Which expected followers have been delivered; sets ``ready`` when all have."""
 
     def __init__(self, expect: Sequence[str], ready: ReadySignal | None) -> None:
@@ -99,7 +99,7 @@ def run_leaders(spec: SessionSpec, options: LeadersOptions, stop: StopSignal,
     """The leaders of ``options`` until stopped (see the module's docstring)."""
     record = DeliveryRecord(options.record)
     lock = threading.Lock()  # the record, written from every leader's poll thread
-    progress = _Progress(options.expect, ready)
+    progress = Progress(options.expect, ready)
     parent_of = dict(options.parents)
     try:
         with spec.open() as session, contextlib.ExitStack() as stack:

@@ -1,0 +1,194 @@
+"""The ROS 2 air benchmark's report: the round-robin floor, the table of (a), (b), (c),
+the issue's targets, what (c)'s polls and replies need of the channel, and the figure.
+
+The floor is the stationary study's: S (N/2 + 1), S measured in (c) as the window over
+the frames the ground received. What (c) needs of the channel is counted from the
+leader's own record: each reply's bytes (the CDR message and its framing) cut into TCP
+segments with their headers going up, each poll in a packet going down with the
+acknowledgements of the replies' segments (one per two, as Linux's delayed ACKs)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from wiswarm_zenoh.experiments.ros2_air import AirResults, CaseResult
+from wiswarm_zenoh.testbed.spec import MAX_FRAME_BYTES, MTU
+
+SEGMENT_BYTES = MTU - 20 - 32  # TCP payload of a full packet: IPv4, TCP with timestamps
+HEADER_BYTES = MAX_FRAME_BYTES - SEGMENT_BYTES  # Ethernet, IPv4, TCP on each packet
+REPLY_FRAMING = 128  # Zenoh's reply and WiSwarm's reply header around the CDR bytes
+POLL_BYTES = 128  # a poll: Zenoh's query and WiSwarm's poll
+TARGET_FLOOR = 1.2  # (c) within this of the floor (tbf)
+TARGET_DIRECT = 20.0  # (a) / (c) at N = 8
+TARGET_THROTTLED = 1.5  # (b) / (c) at N = 8
+TARGET_BYTES = 0.10  # (c)'s bytes within this of what its polls and replies need
+
+
+def on_wire(payload: int) -> int:
+    """Bytes a TCP stream's ``payload`` takes on the link, in full-size segments."""
+    return payload + math.ceil(payload / SEGMENT_BYTES) * HEADER_BYTES
+
+
+def needed_bytes(run: CaseResult) -> tuple[float, float]:
+    """What (c)'s polls and replies need of the channel, up and down (bytes)."""
+    up = down = 0.0
+    if run.replies:
+        mean_reply = run.reply_bytes / run.replies + REPLY_FRAMING
+        up = run.replies * on_wire(round(mean_reply))
+        down = run.replies * math.ceil(math.ceil(mean_reply / SEGMENT_BYTES) / 2) * HEADER_BYTES
+    empty = max(0.0, run.polls - run.replies)
+    return up + empty * on_wire(REPLY_FRAMING), down + run.polls * on_wire(POLL_BYTES)
+
+
+def floor_s(run: CaseResult) -> float:
+    """S (N/2 + 1), S the window over the frames received in (c); NaN without frames."""
+    return run.duration / run.frames * (run.case.n / 2 + 1) if run.frames else math.nan
+
+
+def _ms(seconds: float) -> str:
+    return "-" if math.isnan(seconds) else f"{seconds * 1e3:.0f}"
+
+
+def _ratio(a: float, b: float) -> float:
+    return a / b if b > 0 else math.nan
+
+
+def _x(value: float) -> str:
+    return "-" if math.isnan(value) else f"{value:.2f}"
+
+
+def _mb(value: float) -> str:
+    return f"{value / 1e6:.1f}"
+
+
+def rows(results: AirResults) -> list[tuple[str, int, CaseResult | None, CaseResult | None,
+                                            CaseResult | None]]:
+    """(medium, N, (a), (b) at its best rate, (c)) in the order measured."""
+    keys = list(dict.fromkeys((r.medium, r.case.n) for r in results.runs))
+    out = []
+    for medium, n in keys:
+        best = results.best.get((medium, n))
+        throttled = None if best is None else results.find(medium, n, f"throttled@{best:g}")
+        out.append((medium, n, results.find(medium, n, "direct"), throttled,
+                    results.find(medium, n, "wiswarm")))
+    return out
+
+
+def table(results: AirResults) -> list[str]:
+    """One row a run: age at the ground, frames, the channel's bytes; (c)'s floor."""
+    lines = ["| medium | N | case | mean AoI (ms) | p95 AoI (ms) | frames/s per robot | "
+             "channel up / down (MB) | / (c) |", "|---|---|---|---|---|---|---|---|"]
+    for medium, n, _, _, wiswarm in rows(results):
+        c = math.nan if wiswarm is None else wiswarm.mean()
+        for run in (r for r in results.runs if (r.medium, r.case.n) == (medium, n)):
+            best = run.case.max_hz is not None and results.best.get((medium, n)) == \
+                run.case.max_hz
+            name = {"direct": "(a) direct", "wiswarm": "(c) WiSwarm"}.get(
+                run.case.kind, f"(b) throttled {run.case.max_hz:g} Hz" + (" (best)" if best
+                                                                          else ""))
+            lines.append(f"| {medium} | {n} | {name} | {_ms(run.mean())} | "
+                         f"{_ms(run.mean('p95_aoi_s'))} | {run.mean('throughput_fps'):.1f} | "
+                         f"{_mb(run.up_bytes)} / {_mb(run.down_bytes)} | "
+                         f"{_x(_ratio(run.mean(), c))} |")
+    return lines
+
+
+def floor_lines(results: AirResults) -> list[str]:
+    """(c) against the round-robin floor, and its bytes against what it needs."""
+    lines = ["| medium | N | S measured (ms) | floor (ms) | (c) mean AoI (ms) | / floor | "
+             "(c) up / down (MB) | polls and replies need (MB) | measured / need |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for medium, n, _, _, c in rows(results):
+        if c is None:
+            continue
+        floor = floor_s(c)
+        up, down = needed_bytes(c)
+        s = floor / (n / 2 + 1)
+        lines.append(f"| {medium} | {n} | {_ms(s)} | {_ms(floor)} | {_ms(c.mean())} | "
+                     f"{_x(_ratio(c.mean(), floor))} | {_mb(c.up_bytes)} / {_mb(c.down_bytes)}"
+                     f" | {_mb(up)} / {_mb(down)} | "
+                     f"{_x(_ratio(c.up_bytes + c.down_bytes, up + down))} |")
+    return lines
+
+
+def targets(results: AirResults) -> list[str]:
+    """Each of the issue's targets, met or missed, with its numbers."""
+    lines = []
+    for medium, n, direct, throttled, c in rows(results):
+        if c is None:
+            continue
+        mean = c.mean()
+        checks = []
+        if medium == "tbf":
+            over = _ratio(mean, floor_s(c))
+            checks.append((f"(c) {_x(over)} x the floor", over <= TARGET_FLOOR,
+                           f"<= {TARGET_FLOOR}"))
+        if n >= 8 and direct is not None:
+            gain = _ratio(direct.mean(), mean)
+            checks.append((f"(a)/(c) {gain:.1f}", gain >= TARGET_DIRECT, f">= {TARGET_DIRECT:g}"))
+        if n >= 8 and throttled is not None:
+            gain = _ratio(throttled.mean(), mean)
+            checks.append((f"(b)/(c) {gain:.2f}", gain >= TARGET_THROTTLED,
+                           f">= {TARGET_THROTTLED}"))
+        up, down = needed_bytes(c)
+        off = abs(_ratio(c.up_bytes + c.down_bytes, up + down) - 1)
+        checks.append((f"(c)'s bytes {off * 100:.0f} % off what polls and replies need",
+                       off <= TARGET_BYTES, f"<= {TARGET_BYTES * 100:.0f} %"))
+        for text, met, target in checks:
+            lines.append(f"- {medium}, N = {n}: {text} (target {target}): "
+                         f"{'met' if met else 'MISSED'}")
+    return lines
+
+
+CASE_COLOURS = (("(a) direct", "C3"), ("(b) best throttled", "C1"), ("(c) WiSwarm", "C0"))
+
+
+def plot(path: Path, results: AirResults) -> None:
+    """Per medium: mean AoI of (a), (b), (c) against N with (c)'s floor (top, log
+    scale), and the channel's bytes per second to the ground (bottom)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    media = list(dict.fromkeys(r.medium for r in results.runs))
+    fig, axes = plt.subplots(2, len(media), figsize=(5.5 * len(media), 7), squeeze=False)
+    for column, medium in enumerate(media):
+        aoi, air = axes[0][column], axes[1][column]
+        measured = [row for row in rows(results) if row[0] == medium]
+        for x, (_, _, *runs) in enumerate(measured):
+            for i, (run, (label, colour)) in enumerate(zip(runs, CASE_COLOURS, strict=True)):
+                if run is None:
+                    continue
+                first = x == 0
+                aoi.bar(x + (i - 1) * 0.27, run.mean() * 1e3, 0.25, color=colour,
+                        label=label if first else None)
+                air.bar(x + (i - 1) * 0.27, run.up_bytes * 8 / run.duration / 1e6, 0.25,
+                        color=colour, label=label if first else None)
+            c = runs[2]
+            if c is not None:
+                aoi.hlines(floor_s(c) * 1e3, x - 0.42, x + 0.42, colors="k",
+                           linestyles="--", label="floor S(N/2+1)" if x == 0 else None)
+                air.hlines(needed_bytes(c)[0] * 8 / c.duration / 1e6, x + 0.15, x + 0.42,
+                           colors="k", linestyles=":",
+                           label="(c)'s replies need" if x == 0 else None)
+        for ax in (aoi, air):
+            ax.set_xticks(range(len(measured)), [f"N = {row[1]}" for row in measured])
+            ax.grid(True, axis="y", alpha=0.3)
+        aoi.set_yscale("log")
+        aoi.set_title(f"{medium}: mean AoI at the ground")
+        aoi.set_ylabel("mean AoI per robot (ms)")
+        air.set_ylabel("channel to the ground (Mbit/s)")
+        aoi.legend(fontsize=7)
+        air.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def report(results: AirResults) -> str:
+    """The markdown report: table, floor and bytes, targets."""
+    return "\n".join(["## Runs", "", *table(results), "",
+                      "## (c) against the floor, and its bytes", "", *floor_lines(results), "",
+                      "## Targets", "", *targets(results), ""])
