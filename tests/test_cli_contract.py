@@ -50,6 +50,9 @@ ALLOWED_BY_KIND: dict[str, dict[str, str]] = {
     "host list": dict.fromkeys(("nan", "inf"), "a host name of another machine (a "
                                "certificate's), not resolved here"),
     "run id": dict.fromkeys(("nan", "inf", "0"), "a channel name: letters, digits, - and _"),
+    "key expression": dict.fromkeys(("nan", "inf", "-inf", "-1", "0", "x" * 300,
+                                     "tcp/999.1.1.1:1"), "a Zenoh key expression"),
+    "ROS topic": {"/nonexistent/dir/file": "a ROS topic of three tokens"},
 }
 # Values accepted by one flag (``command --flag``, or ``--flag`` of every command).
 ALLOWED_BY_FLAG: dict[str, dict[str, str]] = {

@@ -1,8 +1,10 @@
 """wiswarm-zenoh: Age-of-Information polling middleware (WiSwarm) on Eclipse Zenoh.
 
-Open a ``zenoh.Session`` and put a ``Follower`` on each robot (``offer`` its bytes, get
-its waypoints in ``on_control``) and a ``Leader`` where the data is used (deliveries to
-a callable, a ``FifoChannel`` or a ``RingChannel``; ``set_control`` steers a follower).
+Open a ``zenoh.Session`` and put a ``Follower`` on each robot (``offer`` its bytes, or
+give it what the robot already publishes, a ``ZenohSource`` or
+``wiswarm_zenoh.ros2.Ros2TopicSource``; get its waypoints in ``on_control``) and a
+``Leader`` where the data is used (deliveries to a callable, a ``FifoChannel`` or a
+``RingChannel``; ``set_control`` steers a follower).
 An ``Observer`` watches any swarm's stats and deliveries, for tools.
 """
 
@@ -13,6 +15,7 @@ from wiswarm_zenoh.api.handlers import Channel, FifoChannel, Handler, RingChanne
 from wiswarm_zenoh.api.leader import Leader
 from wiswarm_zenoh.api.observer import DeliveryRecord, Observation, Observer
 from wiswarm_zenoh.core import Delivered, FollowerConfig, FollowerStats, LeaderConfig, Waypoint
+from wiswarm_zenoh.transport.source_feed import ZenohSource
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
 
 __all__ = [
@@ -31,5 +34,6 @@ __all__ = [
     "Observer",
     "RingChannel",
     "Waypoint",
+    "ZenohSource",
     "__version__",
 ]

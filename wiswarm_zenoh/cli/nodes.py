@@ -31,13 +31,16 @@ from wiswarm_zenoh.baselines import (
 )
 from wiswarm_zenoh.baselines import SYSTEMS as BASELINES
 from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.options import (
     IN_FLIGHT,
+    ArgType,
     UsageError,
     add_ros2_arguments,
     add_zenoh_arguments,
     finite_float,
     host_port,
+    integer,
     node_name,
     positive_float,
     positive_int,
@@ -56,7 +59,10 @@ from wiswarm_zenoh.programs.runners import (
     run_router,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_topic
+from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.security.checks import check_identity, check_swarm
+from wiswarm_zenoh.transport.source_feed import ZenohSource
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
@@ -75,7 +81,8 @@ LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wisw
                "ros_max_rate": ("wiswarm",),
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
-                 "congestion": ("push",), "to": ("udp", "tcp")}
+                 "congestion": ("push",), "to": ("udp", "tcp"), "source": ("wiswarm",),
+                 "ros2_topic": ("wiswarm",), "ros2_waypoints": ("wiswarm",)}
 
 
 def _add_common(parser: argparse.ArgumentParser, modes: tuple[str, ...]) -> None:
@@ -228,13 +235,37 @@ def _follower(args: argparse.Namespace) -> int:
     config = _checked(FollowerConfig, **_given(args, "queue", "capacity", "fragment_size"),
                       rate_hz=rate if args.queue == "fifo" else None)
     _check_frame_bytes(args.frame_bytes, config)
+    source = _follower_source(args)
+    if args.ros2_waypoints is not None:
+        require("ros2")  # the Path is made and serialized here
     options = FollowerOptions(args.swarm, args.id, config, args.frame_bytes, rate,
-                              args.duration)
+                              args.duration, source, args.ros2_waypoints, args.ros_domain or 0)
     spec = _spec(args, "peer")
+    what = (f"{args.frame_bytes}-byte frames at {rate:g} Hz" if source is None else
+            f"the samples of {args.source or args.ros2_topic}")
     run_follower(spec, options, threading.Event(), _Announce(
-        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {rate:g} Hz, "
-        f"{config.queue} queue (Ctrl-C to stop)"))
+        f"wiswarm follower {args.id}: {what}, {config.queue} queue (Ctrl-C to stop)"))
     return 0
+
+
+def _key_expr(text: str) -> str:
+    return ZenohSource(text).key_expr  # ValueError saying why not
+
+
+def _follower_source(args: argparse.Namespace) -> ZenohSource | Ros2TopicSource | None:
+    """What the follower serves: --source, --ros2-topic, or synthetic frames (None)."""
+    if args.source is not None and args.ros2_topic is not None:
+        raise UsageError("give --source or --ros2-topic, not both")
+    if args.ros_domain is not None and args.ros2_topic is None and args.ros2_waypoints is None:
+        raise UsageError("--ros-domain is for --ros2-topic or --ros2-waypoints: add one")
+    if (args.source or args.ros2_topic) and args.rate is not None and args.queue != "fifo":
+        raise UsageError("--rate paces synthetic frames (or a fifo queue's rate control): "
+                         "a source comes at its own rate")
+    if args.source is not None:
+        return ZenohSource(args.source)
+    if args.ros2_topic is not None:
+        return Ros2TopicSource(args.ros2_topic, args.ros_domain or 0)
+    return None
 
 
 def _check_frame_bytes(frame_bytes: int, config: FollowerConfig) -> None:
@@ -312,8 +343,9 @@ def register(subparsers: Any) -> None:
     leader.set_defaults(func=_leader)
 
     follower = subparsers.add_parser(
-        "follower", help="a follower sending synthetic frames",
-        description="A follower taking synthetic frames at --rate. --system wiswarm (the "
+        "follower", help="a follower sending synthetic frames, or what the robot publishes",
+        description="A follower taking synthetic frames at --rate, or the samples the "
+        "robot already publishes (--source KEYEXPR, --ros2-topic TOPIC). --system wiswarm (the "
         "default) queues them (LIFO: the freshest only) and answers the leader's polls; "
         "push, udp and tcp are the baselines: every frame is stamped into a FIFO of "
         f"--capacity frames (default {DEFAULT_CAPACITY}; a full FIFO drops the new frame) "
@@ -345,6 +377,24 @@ def register(subparsers: Any) -> None:
     follower.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                           help=f"bytes per synthetic frame (default {FRAME_BYTES} = 224x224; "
                           "udp: what fits one datagram)")
+    follower.add_argument("--source", metavar="KEYEXPR", type=ArgType("key expression",
+                                                                      _key_expr),
+                          help="wiswarm: serve the samples published on this Zenoh key "
+                          "expression instead of synthetic frames (each stamped with its "
+                          "Zenoh timestamp, else its arrival)")
+    follower.add_argument("--ros2-topic", metavar="TOPIC", type=ArgType("ROS topic",
+                                                                        check_topic),
+                          help="wiswarm: serve this ROS 2 topic as rmw_zenoh publishes it "
+                          "(any type, found from its publisher; CDR bytes as they came, "
+                          "stamped with their source time); a --ros2 leader republishes it "
+                          "as <ns>/<follower>/<topic>")
+    follower.add_argument("--ros2-waypoints", metavar="TOPIC", type=ArgType("ROS topic",
+                                                                            check_topic),
+                          help="wiswarm: publish this follower's waypoints as a "
+                          "nav_msgs/msg/Path on TOPIC of the robot's ROS 2 (the ros2 extra)")
+    follower.add_argument("--ros-domain", type=integer(0, MAX_DOMAIN), metavar="D",
+                          help="the ROS domain of --ros2-topic and --ros2-waypoints "
+                          "(ROS_DOMAIN_ID; default 0)")
     _add_common(follower, ("peer", "client"))
     follower.set_defaults(func=_follower)
 

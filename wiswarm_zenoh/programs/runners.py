@@ -33,8 +33,11 @@ from wiswarm_zenoh.programs.frames import (
 )
 from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
+from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
+from wiswarm_zenoh.ros2.waypoints import WaypointsPublisher
 from wiswarm_zenoh.transport.bridge import BridgeOptions
 from wiswarm_zenoh.transport.edge import Upstream
+from wiswarm_zenoh.transport.source_feed import ZenohSource
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)
@@ -149,12 +152,19 @@ def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = 
 
 @dataclass(frozen=True)
 class FollowerOptions:
+    """One follower: synthetic frames (``frame_bytes`` at ``frame_rate``), or the
+    samples of ``source``; with ``waypoints_topic``, its waypoints as a ROS 2 Path there
+    (on ``ros_domain``)."""
+
     swarm: str
     follower_id: str
     config: FollowerConfig = field(default_factory=FollowerConfig)
     frame_bytes: int = FRAME_BYTES
     frame_rate: float = FRAME_RATE
     duration: float | None = None
+    source: ZenohSource | Ros2TopicSource | None = None
+    waypoints_topic: str | None = None
+    ros_domain: int = 0
 
 
 def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
@@ -176,21 +186,27 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         for option in options:
             session = stack.enter_context(spec.open())
             watches.add(session, f"follower {option.follower_id}")
+            waypoints = None if option.waypoints_topic is None else WaypointsPublisher(
+                session, option.follower_id, option.waypoints_topic, option.ros_domain)
+            if waypoints is not None:
+                stack.callback(waypoints.close)
             node = stack.enter_context(
-                Follower(session, option.swarm, option.follower_id, config=option.config))
-            feeds.append((option, node, SyntheticFrames(node.offer, option.frame_bytes,
-                                                        option.frame_rate)))
+                Follower(session, option.swarm, option.follower_id, config=option.config,
+                         source=option.source, on_control=waypoints))
+            feeds.append((option, node, None if option.source is not None else
+                          SyntheticFrames(node.offer, option.frame_bytes, option.frame_rate)))
         for _, _, frames in feeds:
-            frames.start()
-            stack.callback(frames.stop)
+            if frames is not None:
+                frames.start()
+                stack.callback(frames.stop)
         if ready is not None:
             ready.set()
 
         wait_until_stopped(stop, options[0].duration if options else None, watches.check)
         reached = watches.finish()
         for option, node, frames in feeds:
-            log.info("follower %s: %d frames offered, %d polls answered",
-                     option.follower_id, frames.frames, node.polls)
+            log.info("follower %s: %d %s offered, %d polls answered", option.follower_id,
+                     node.offered, "frames" if frames is not None else "samples", node.polls)
     if not reached:
         raise NoRouterReached
 

@@ -1,12 +1,19 @@
 """How an application's updates become standard ROS 2 messages: an adapter it gives
-the leader (``Ros2Options.adapter``) or registers by name for the command line
+the leader (``Ros2Options.adapter``), or names for the command line
 (``wiswarm leader --ros2 --ros-updates NAME``). Without one, each update goes out as
-its bytes (``std_msgs/msg/UInt8MultiArray`` on ``<ns>/<follower>/update``)."""
+its bytes (``std_msgs/msg/UInt8MultiArray`` on ``<ns>/<follower>/update``).
+
+The command line finds an adapter by name among the installed packages' entry points
+of the group ``wiswarm_zenoh.update_adapters`` (``NAME = "package.module:Adapter"``, an
+adapter or a class made with no argument; this project's ``tracking`` is one), so a
+package of the application's own adds one with no change here; in a process of its
+own, ``register_adapter`` does the same."""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from typing import Any, Protocol
 
 import numpy as np
@@ -50,23 +57,32 @@ class BytesAdapter:
         return [self._message(layout=self._layout, data=np.frombuffer(update, np.uint8))]
 
 
+ENTRY_POINTS = "wiswarm_zenoh.update_adapters"
 _REGISTRY: dict[str, UpdateAdapter] = {}
 
 
 def register_adapter(name: str, adapter: UpdateAdapter) -> None:
-    """Make ``adapter`` available to the command line as ``name``."""
+    """Make ``adapter`` known as ``name`` in this process (``adapter(name)``)."""
     _REGISTRY[name] = adapter
 
 
 def adapter(name: str) -> UpdateAdapter:
-    """The adapter registered as ``name`` ("bytes": the default); ValueError naming the
-    registered ones otherwise."""
+    """The adapter ``name``: "bytes" (the default), one registered in this process, or
+    an installed entry point's (loaded once); ValueError naming them all otherwise."""
     if name == "bytes":
         return BytesAdapter()
     if name not in _REGISTRY:
-        raise ValueError(f"no update adapter {name!r}: one of {', '.join(adapter_names())}")
+        for point in entry_points(group=ENTRY_POINTS, name=name):
+            loaded = point.load()
+            register_adapter(name, loaded() if isinstance(loaded, type) else loaded)
+            break
+        else:
+            raise ValueError(f"no update adapter {name!r}: one of "
+                             f"{', '.join(adapter_names())}")
     return _REGISTRY[name]
 
 
 def adapter_names() -> list[str]:
-    return ["bytes", *sorted(_REGISTRY)]
+    """Every adapter's name: the default, those registered, those installed."""
+    installed = {point.name for point in entry_points(group=ENTRY_POINTS)}
+    return ["bytes", *sorted(installed | set(_REGISTRY))]

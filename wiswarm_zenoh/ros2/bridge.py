@@ -1,7 +1,9 @@
 """The leader as a ROS 2 participant (``wiswarm leader --ros2``): each delivered update
-as the application's messages on ``<ns>/<follower>/<leaf>``, the followers' stats on
-``/diagnostics``, and a ``nav_msgs/msg/Path`` on ``<ns>/<follower>/waypoints`` as that
-follower's control, checked as ``set_control`` checks any caller's.
+as the application's messages on ``<ns>/<follower>/<leaf>`` (a follower serving a ROS 2
+topic: as the message it is, on ``<ns>/<follower>/<topic>``, see ``republish``), the
+followers' stats on ``/diagnostics``, and a ``nav_msgs/msg/Path`` on
+``<ns>/<follower>/waypoints`` as that follower's control, checked as ``set_control``
+checks any caller's.
 
 The poll thread only leaves each delivery in its follower's slot (``Freshest``); a
 thread of the bridge's own maps, serializes and puts it. A delivery that finds an older
@@ -27,8 +29,9 @@ from wiswarm_zenoh.core import Delivered, FollowerStats, WireError
 from wiswarm_zenoh.ros2.adapters import BytesAdapter, UpdateAdapter
 from wiswarm_zenoh.ros2.diagnostics import diagnostic_array
 from wiswarm_zenoh.ros2.graph import check_domain, check_namespace, ros_token
-from wiswarm_zenoh.ros2.messages import DIAGNOSTIC_ARRAY, PATH
+from wiswarm_zenoh.ros2.messages import DIAGNOSTIC_ARRAY, NS_PER_S, PATH
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
+from wiswarm_zenoh.ros2.republish import Republisher
 from wiswarm_zenoh.ros2.waypoints import path_waypoints
 from wiswarm_zenoh.transport import BadInputLog, Freshest, SwarmKeys
 from wiswarm_zenoh.transport.bridge import ControlTarget
@@ -85,8 +88,14 @@ class Ros2Bridge:
         self._adapter = options.adapter if options.adapter is not None else BytesAdapter()
         self._control = control
         self._diagnostics = self._node.publisher(DIAGNOSTICS, DIAGNOSTIC_ARRAY)
+        self._republisher = Republisher(session, self._keys, self._node, self.namespace,
+                                        self.bad_input)
         self._followers: dict[str, list[Ros2Publisher]] = {}
-        self._unsent: Freshest[str, tuple[list[Ros2Publisher], Delivered]] = Freshest()
+        self._waypoint_topics: set[str] = set()  # followers whose Path is listened to
+        # Per follower, the freshest delivery unsent and its publishers (None: its source's
+        # own message, republished as it came).
+        self._unsent: Freshest[str, tuple[list[Ros2Publisher] | None, Delivered]] = \
+            Freshest()
         self._period = 0.0 if options.max_rate_hz is None else 1.0 / options.max_rate_hz
         self._next_at: dict[str, float] = {}  # per follower: the earliest delivery to send
         self.published = self.superseded = self.throttled = 0
@@ -106,14 +115,16 @@ class Ros2Bridge:
 
     def deliver(self, event: Delivered) -> None:
         """Leave ``event`` for the publishing thread (on the poll thread: no more)."""
-        publishers = self._publishers(event.follower)
+        source = self._source(event.follower)
+        publishers = self._publishers(event.follower) if source is None else [source]
         if not any(publisher.listening for publisher in publishers):
             return
         if event.delivered_at < self._next_at.get(event.follower, -math.inf):
             self.throttled += 1
             return
         self._next_at[event.follower] = event.delivered_at + self._period
-        self.superseded += self._unsent.put(event.follower, (publishers, event)) is not None
+        self.superseded += self._unsent.put(
+            event.follower, (None if source is not None else publishers, event)) is not None
 
     def _publish_deliveries(self) -> None:
         while (item := self._unsent.take()) is not None:
@@ -124,7 +135,13 @@ class Ros2Bridge:
                 log.exception("ROS 2: %s's update at %.6f not published", follower,
                               event.generated_at)
 
-    def _publish(self, publishers: list[Ros2Publisher], event: Delivered) -> None:
+    def _publish(self, publishers: list[Ros2Publisher] | None, event: Delivered) -> None:
+        if publishers is None:  # a ROS 2 source's message: as it came, whatever it holds
+            source = self._source(event.follower)
+            if source is not None:
+                source.publish_cdr(event.payload, round(event.generated_at * NS_PER_S))
+                self.published += 1
+            return
         try:
             messages = self._adapter.messages(event.follower, event.payload, event.generated_at)
         except (ValueError, WireError) as exc:
@@ -136,22 +153,36 @@ class Ros2Bridge:
 
     def stats(self, records: Sequence[FollowerStats], now: float) -> None:
         for record in records:
-            if record.present:
+            if record.present and self._source(record.follower) is None:
                 self._publishers(record.follower)
         if self._diagnostics.listening:
             self._diagnostics.publish(diagnostic_array(self._keys.swarm, records, now))
 
+    def _source(self, follower: str) -> Ros2Publisher | None:
+        """The publisher of a follower's ROS 2 source republished (and its waypoint
+        subscription), or None if it serves none."""
+        source = self._republisher.publisher(follower, ros_token(follower))
+        if source is not None:
+            self._waypoints_in(follower)
+        return source
+
     def _publishers(self, follower: str) -> list[Ros2Publisher]:
-        """A follower's publishers, and its waypoint subscription, made when it is first
-        seen (and kept: a follower may come back)."""
+        """A follower's publishers, made when it is first seen (and kept: a follower may
+        come back)."""
         publishers = self._followers.get(follower)
         if publishers is None:
+            self._waypoints_in(follower)
             publishers = [self._node.publisher(self.topic(follower, out.leaf), out.type_name)
                           for out in self._adapter.outputs]
-            self._node.subscription(self.topic(follower, "waypoints"), PATH,
-                                    partial(self._waypoints, follower))
             self._followers[follower] = publishers
         return publishers
+
+    def _waypoints_in(self, follower: str) -> None:
+        """The follower's waypoint subscription, once."""
+        if follower not in self._waypoint_topics:
+            self._waypoint_topics.add(follower)
+            self._node.subscription(self.topic(follower, "waypoints"), PATH,
+                                    partial(self._waypoints, follower))
 
     def _waypoints(self, follower: str, path: Any) -> None:
         waypoints = path_waypoints(path)
@@ -162,6 +193,7 @@ class Ros2Bridge:
         """Stop publishing (what is unsent is dropped) and undeclare the node."""
         self._unsent.close()
         self._thread.join()
+        self._republisher.close()
         self._node.close()
         log.info("ROS 2: %d deliveries published, %d superseded unsent by a newer one, "
                  "%d over the rate limit", self.published, self.superseded, self.throttled)

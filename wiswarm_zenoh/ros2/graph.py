@@ -84,3 +84,37 @@ def attachment(sequence: int, source_ns: int, gid: bytes) -> bytes:
     """A sample's attachment: sequence number, source time stamp, GID."""
     return _ATTACHMENT.pack(sequence, source_ns, len(gid)) + gid
 
+
+
+def unmangle(chunk: str) -> str:
+    """A ROS name from its key chunk (``%`` back to ``/``)."""
+    return chunk.replace("%", "/")
+
+
+def type_name_of(dds_name: str) -> str | None:
+    """``pkg/msg/Name`` of a DDS type name ``pkg::msg::dds_::Name_``; None otherwise."""
+    parts = dds_name.split("::")
+    if len(parts) != 4 or parts[2] != "dds_" or not parts[3].endswith("_") or \
+            not all(_TOKEN.fullmatch(p) for p in (parts[0], parts[1], parts[3][:-1])):
+        return None
+    return f"{parts[0]}/{parts[1]}/{parts[3][:-1]}"
+
+
+def check_topic(topic: str) -> str:
+    """A fully qualified ROS topic name (``/token[/token...]``); ValueError otherwise."""
+    try:
+        return check_namespace(topic)
+    except ValueError:
+        raise ValueError(f"a ROS topic is /token[/token...] (letters, digits, _; no leading "
+                         f"digit), got {topic!r}") from None
+
+
+def source_time_ns(attachment_bytes: bytes) -> int:
+    """The source time stamp (ns since the epoch) of a sample's attachment; ValueError
+    for bytes that are not rmw_zenoh's attachment."""
+    if len(attachment_bytes) < _ATTACHMENT.size:
+        raise ValueError(f"an attachment of {len(attachment_bytes)} bytes, not rmw_zenoh's")
+    _, source_ns, gid_len = _ATTACHMENT.unpack_from(attachment_bytes)
+    if len(attachment_bytes) != _ATTACHMENT.size + gid_len or source_ns <= 0:
+        raise ValueError("not rmw_zenoh's attachment (sequence, source time, GID)")
+    return int(source_ns)

@@ -16,7 +16,13 @@ from typing import Any, cast
 import zenoh
 
 from wiswarm_zenoh.ros2.graph import GID_BYTES, NodeName, attachment, data_key, topic_keys
-from wiswarm_zenoh.ros2.messages import MessageError, deserialize, ros_type, serialize
+from wiswarm_zenoh.ros2.messages import (
+    MessageError,
+    RosType,
+    deserialize,
+    ros_type,
+    serialize,
+)
 from wiswarm_zenoh.transport import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 
@@ -25,12 +31,13 @@ MAX_MESSAGE_BYTES = 1 << 20  # larger input is refused before it is decoded
 
 
 class Ros2Publisher:
-    """Publishes messages of one type on one topic (from one thread at a time)."""
+    """Publishes messages of one type on one topic (from one thread at a time): made
+    here and serialized (``publish``), or CDR bytes as they came (``publish_cdr``, of a
+    type this process may not even know)."""
 
     def __init__(self, session: zenoh.Session, node: NodeName, entity_id: int, topic: str,
-                 type_name: str) -> None:
-        self.topic, self.type_name = topic, type_name
-        kind = ros_type(type_name)
+                 kind: RosType) -> None:
+        self.topic, self.type_name = topic, kind.name
         self._gid = os.urandom(GID_BYTES)
         self._sequence = 0
         self._publisher = session.declare_publisher(data_key(node.domain, topic, kind),
@@ -47,11 +54,14 @@ class Ros2Publisher:
 
     def publish(self, message: Any) -> None:
         """Serialize and put ``message`` (nothing is done while nobody subscribes)."""
-        if not self.listening:
-            return
+        if self.listening:
+            self.publish_cdr(serialize(message, self.type_name), time.time_ns())
+
+    def publish_cdr(self, data: bytes, source_ns: int) -> None:
+        """Put ``data``, CDR bytes of this type, stamped ``source_ns`` (the attachment's
+        source time, ns since the epoch)."""
         self._sequence += 1
-        self._publisher.put(serialize(message, self.type_name), attachment=attachment(
-            self._sequence, time.time_ns(), self._gid))
+        self._publisher.put(data, attachment=attachment(self._sequence, source_ns, self._gid))
 
     def close(self) -> None:
         undeclare(self._token, self._listener, self._publisher)
@@ -114,7 +124,12 @@ class Ros2Node:
             return self._next_id - 1
 
     def publisher(self, topic: str, type_name: str) -> Ros2Publisher:
-        publisher = Ros2Publisher(self._session, self.name, self._entity_id(), topic, type_name)
+        """A publisher of ``type_name``, one of the standard messages (the ros2 extra)."""
+        return self.publisher_of(topic, ros_type(type_name))
+
+    def publisher_of(self, topic: str, kind: RosType) -> Ros2Publisher:
+        """A publisher of ``kind``, any type: its CDR bytes go out as given."""
+        publisher = Ros2Publisher(self._session, self.name, self._entity_id(), topic, kind)
         self._entities.callback(publisher.close)
         return publisher
 

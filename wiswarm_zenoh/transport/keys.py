@@ -104,6 +104,17 @@ class SwarmKeys:
         """``wiswarm/<swarm>/<follower>/fresh``: its delivered updates, put by the leader."""
         return f"{self.prefix}/{check_follower(follower)}/fresh"
 
+    def source(self, follower: str) -> str:
+        """``wiswarm/<swarm>/<follower>/source``: under it, the liveliness token that says
+        what the follower serves (a ROS 2 topic: ``.../source/ros2/<topic>/<type>/<hash>``),
+        so a leader republishes it as what it is."""
+        return f"{self.prefix}/{check_follower(follower)}/source"
+
+    @property
+    def all_sources(self) -> str:
+        """``wiswarm/<swarm>/*/source/**``: every follower's source token."""
+        return f"{self.prefix}/*/source/**"
+
     def follower_of(self, key: str, leaf: str) -> str | None:
         """The follower id in ``wiswarm/<swarm>/<id>/<leaf>`` (or ``members/<id>`` when
         ``leaf`` is "members"); None if ``key`` is anything else."""

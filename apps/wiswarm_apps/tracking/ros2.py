@@ -21,7 +21,6 @@ from wiswarm_zenoh.ros2 import (
     Ros2Bridge,
     header,
     message_class,
-    register_adapter,
     yaw_quaternion,
 )
 
@@ -107,5 +106,3 @@ def _marker(estimate: CarEstimate, ns: str, kind: int, position: Any,
         mesh_file=message_class("visualization_msgs/msg/MeshFile")(filename="", data=nothing),
         mesh_use_embedded_materials=False)
 
-
-register_adapter("tracking", FrameAdapter())

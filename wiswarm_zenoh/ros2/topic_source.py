@@ -1,0 +1,154 @@
+"""A ROS 2 topic as a follower's source (``wiswarm follower --ros2-topic``), taken from
+rmw_zenoh where the robot already publishes it: nothing is decoded on the robot, so any
+message type works and the ros2 extra is not needed.
+
+The topic's type and RIHS01 hash are found from the first publisher's liveliness token
+(``@ros2_lv/<D>/.../MP/.../<topic>/<type>/<hash>/...``) or the first data key seen
+(``<D>/<topic>/<type>/<hash>``); samples of any other type on the topic are counted as
+bad input, never served. Each sample's CDR bytes are offered as they came, generated at
+the source time of its attachment (the publisher's clock: the robot's), else at its
+arrival. Once the type is known the follower holds the token
+``wiswarm/<swarm>/<follower>/source/ros2/<topic>/<type>/<hash>``, by which a ``--ros2``
+leader republishes the updates with that type (``republish``)."""
+
+from __future__ import annotations
+
+import logging
+import re
+import threading
+from dataclasses import dataclass
+
+import zenoh
+
+from wiswarm_zenoh.ros2.graph import (
+    ADMIN_SPACE,
+    check_domain,
+    check_topic,
+    mangle,
+    source_time_ns,
+    topic_keys,
+    type_name_of,
+    unmangle,
+)
+from wiswarm_zenoh.ros2.messages import NS_PER_S, RosType
+from wiswarm_zenoh.transport.entities import Declared, undeclare
+from wiswarm_zenoh.transport.follower_node import FollowerNode
+from wiswarm_zenoh.transport.keys import SwarmKeys
+from wiswarm_zenoh.transport.source_feed import Feed
+
+log = logging.getLogger(__name__)
+
+_HASH = re.compile(r"RIHS01_[0-9a-f]{64}")
+SOURCE_KIND = "ros2"
+
+
+def found_type(dds_name: str, type_hash: str) -> RosType | None:
+    """The type named in a key (DDS name and RIHS01 hash), or None if they are not."""
+    name = type_name_of(dds_name)
+    return None if name is None or not _HASH.fullmatch(type_hash) else \
+        RosType(name, dds_name, type_hash)
+
+
+def source_token(keys: SwarmKeys, follower: str, topic: str, kind: RosType) -> str:
+    return f"{keys.source(follower)}/{SOURCE_KIND}/{mangle(topic)}/{kind.dds_name}/{kind.hash}"
+
+
+def parse_source_token(keys: SwarmKeys, key: str) -> tuple[str, str, RosType] | None:
+    """``(follower, topic, type)`` of a follower's ROS 2 source token; None otherwise."""
+    parts = key.split("/")
+    if len(parts) != 8 or parts[:2] != keys.prefix.split("/") or \
+            parts[3:5] != ["source", SOURCE_KIND]:
+        return None
+    kind = found_type(parts[6], parts[7])
+    try:
+        follower, topic = keys.follower_of(keys.update(parts[2]), "update"), \
+            check_topic(unmangle(parts[5]))
+    except ValueError:
+        return None
+    return None if follower is None or kind is None else (follower, topic, kind)
+
+
+@dataclass(frozen=True)
+class Ros2TopicSource:
+    """The ROS 2 topic ``topic`` (a full name, ``/drone1/camera/image_raw/compressed``)
+    on ROS domain ``domain``, as rmw_zenoh publishes it."""
+
+    topic: str
+    domain: int = 0
+
+    def __post_init__(self) -> None:
+        check_topic(self.topic)
+        check_domain(self.domain)
+
+    def open(self, session: zenoh.Session, node: FollowerNode) -> TopicFeed:
+        """Look for the topic on ``session`` and feed ``node`` (the follower does this)."""
+        return TopicFeed(session, self, node)
+
+
+class TopicFeed(Feed):
+    """Feeds ``node`` with ``source``'s samples until ``close()``; ``type`` is the
+    topic's type once found."""
+
+    def __init__(self, session: zenoh.Session, source: Ros2TopicSource,
+                 node: FollowerNode) -> None:
+        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})")
+        self._session, self._source, self._node = session, source, node
+        self.type: RosType | None = None
+        self._data_key = ""
+        self._token: Declared | None = None
+        self._found = threading.Lock()
+        self._closed = False
+        self._data = session.declare_subscriber(
+            topic_keys(source.domain, source.topic),
+            zenoh.handlers.Callback(self._on_sample, indirect=False))
+        self._publishers = session.liveliness().declare_subscriber(
+            f"{ADMIN_SPACE}/{source.domain}/*/*/*/MP/*/*/*/{mangle(source.topic)}/*/*/*",
+            zenoh.handlers.Callback(self._on_publisher, indirect=False), history=True)
+
+    def _on_publisher(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            parts = str(sample.key_expr).split("/")
+            self._found_on(parts[-3], parts[-2], "a publisher's liveliness token")
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        arrived_at = self.now()
+        key = str(sample.key_expr)
+        _, dds_name, type_hash = key.rsplit("/", 2)
+        if not self._found_on(dds_name, type_hash, "its first data key"):
+            kind = self.type
+            self._node.bad_input.report(key, "a data key that names no message type"
+                                        if kind is None else
+                                        f"another type than the topic's {kind.name}")
+            return
+        generated_at = arrived_at
+        attached = sample.attachment
+        try:
+            if attached is None:
+                raise ValueError("no attachment")
+            generated_at = source_time_ns(attached.to_bytes()) / NS_PER_S
+        except ValueError as exc:  # served, stamped at its arrival
+            self._node.bad_input.report(key, f"{exc}: stamped at its arrival")
+        self.offer(sample.payload.to_bytes(), generated_at, arrived_at)
+
+    def _found_on(self, dds_name: str, type_hash: str, how: str) -> bool:
+        """Whether the type named is the topic's (the first one named becomes it)."""
+        with self._found:
+            if self.type is not None:
+                return (dds_name, type_hash) == (self.type.dds_name, self.type.hash)
+            kind = found_type(dds_name, type_hash)
+            if kind is None or self._closed:
+                return False
+            self.type = kind
+            self._token = self._session.liveliness().declare_token(source_token(
+                self._node.keys, self._node.follower_id, self._source.topic, kind))
+        log.info("follower %s: ROS 2 topic %s is a %s (%s), found by %s",
+                 self._node.follower_id, self._source.topic, kind.name, kind.hash, how)
+        return True
+
+    def close(self) -> None:
+        undeclare(self._publishers, self._data)
+        with self._found:
+            self._closed = True
+            if self._token is not None:
+                undeclare(self._token)
+        self.closed()
