@@ -3,11 +3,13 @@ topics the ground subscribes to, what polls and replies need of the channel."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
+from pathlib import Path
 
 import pytest
 
-from wiswarm_zenoh.experiments.ros2_air import AirCase, CaseResult
+from wiswarm_zenoh.experiments.ros2_air import AirCase, AirResults, CaseResult
 from wiswarm_zenoh.experiments.ros2_air_nodes import Throttle
 from wiswarm_zenoh.experiments.ros2_air_report import (
     HEADER_BYTES,
@@ -15,6 +17,8 @@ from wiswarm_zenoh.experiments.ros2_air_report import (
     floor_s,
     needed_bytes,
     on_wire,
+    plot,
+    report,
 )
 from wiswarm_zenoh.sim.metrics import FollowerMetrics
 
@@ -51,10 +55,16 @@ def test_the_ground_subscribes_to_the_robots_topics_or_the_leaders() -> None:
         AirCase("direct", 2, 5.0)
 
 
+def _run(case: AirCase, mean_aoi: float, frames: int, up_bytes: int = 0,
+         replies: int = 0, polls: float = 0.0) -> CaseResult:
+    robot = FollowerMetrics("drone1", mean_aoi, mean_aoi * 2, mean_aoi * 3, frames,
+                            frames / 10.0, 0.0)
+    return CaseResult("tbf", case, 10.0, [robot], up_bytes, 0, replies, replies * 50_000,
+                      polls)
+
+
 def _wiswarm(frames: int, replies: int, polls: float) -> CaseResult:
-    robot = FollowerMetrics("drone1", 0.1, 0.2, 0.3, frames, frames / 10.0, 0.0)
-    return CaseResult("tbf", AirCase("wiswarm", 2), 10.0, [robot], 0, 0, replies,
-                      replies * 50_000, polls)
+    return _run(AirCase("wiswarm", 2), 0.1, frames, 0, replies, polls)
 
 
 def test_what_polls_and_replies_need_counts_segments_and_headers() -> None:
@@ -70,3 +80,25 @@ def test_what_polls_and_replies_need_counts_segments_and_headers() -> None:
 def test_the_floor_is_s_times_half_n_plus_one() -> None:
     # 200 frames in 10 s: S = 50 ms; N = 2: the floor is 2 S
     assert floor_s(_wiswarm(200, 200, 200.0)) == pytest.approx(0.1)
+
+
+def test_the_report_judges_each_target_and_draws_the_figure(tmp_path: Path) -> None:
+    """N = 8: (c) at 1.1 x the floor, its bytes what its replies need; (a) 20 x (c),
+    (b)'s best 1.2 x (c): every target met but (b)'s."""
+    # 8 robots, 400 frames in 10 s: S = 25 ms, the floor 125 ms
+    robots = [FollowerMetrics("drone1", 0.1375, 0.2, 0.3, 50, 5.0, 0.0)] * 8
+    counted = CaseResult("tbf", AirCase("wiswarm", 8), 10.0, robots, 0, 0, 400,
+                         400 * 50_000, 400.0)
+    up, down = needed_bytes(counted)
+    c = dataclasses.replace(counted, up_bytes=round(up), down_bytes=round(down))
+    results = AirResults([c, _run(AirCase("direct", 8), 0.1375 * 20, 10),
+                          _run(AirCase("throttled", 8, 5.0), 0.1375 * 1.2, 50)],
+                         {("tbf", 8): 5.0})
+    text = report(results)
+    assert "(b) throttled 5 Hz (best)" in text
+    assert "(c) 1.10 x the floor (target <= 1.2): met" in text
+    assert "(a)/(c) 20.0 (target >= 20): met" in text
+    assert "(b)/(c) 1.20 (target >= 1.5): MISSED" in text
+    assert "(c)'s bytes 0 % off what polls and replies need (target <= 10 %): met" in text
+    plot(tmp_path / "air.png", results)
+    assert (tmp_path / "air.png").stat().st_size > 10_000

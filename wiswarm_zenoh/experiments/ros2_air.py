@@ -25,6 +25,7 @@ import csv
 import json
 import logging
 import multiprocessing
+import os
 import subprocess
 import sys
 import time
@@ -56,14 +57,14 @@ from wiswarm_zenoh.testbed.run import Medium, follower_groups, read_record, wind
 from wiswarm_zenoh.testbed.spec import ChannelSpec
 from wiswarm_zenoh.testbed.tc import run_json
 from wiswarm_zenoh.testbed.wifi import TAP, WifiMedium
-from wiswarm_zenoh.testbed.wifi_spec import WifiSpec
+from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec, window_counters
 
 log = logging.getLogger(__name__)
 
 CASES = ("direct", "throttled", "wiswarm")
 MEDIA = ("tbf", "wifi")
 SWARM = "air"
-RATES = (3.0, 5.0, 6.0, 7.5, 10.0, 15.0)  # (b)'s grid: 30 Hz / k, so each is exact
+RATES = (2.0, 3.0, 5.0, 6.0, 7.5, 10.0, 15.0)  # (b)'s grid: 30 Hz / k, each exact
 SUPERVISE_PERIOD = 0.5
 STOP_TIMEOUT = 5.0
 
@@ -137,7 +138,8 @@ class AirConfig:
 class CaseResult:
     """What one run measured over its window: each robot's age at the ground, the
     channel's bytes each way, and in (c) the leader's deliveries, their bytes and its
-    polls (the window's share of its whole run's polls per delivery)."""
+    polls (the window's share of its whole run's polls per delivery); on the WiFi medium
+    its counters over the window (``window_counters``)."""
 
     medium: str
     case: AirCase
@@ -148,6 +150,8 @@ class CaseResult:
     replies: int = 0
     reply_bytes: int = 0
     polls: float = 0.0
+    medium_counters: dict[str, float] = field(default_factory=dict)  # the WiFi medium's
+    load: float = 0.0  # the host's load average (1 min) at the run's end
 
     def mean(self, name: str = "mean_aoi_s") -> float:
         return sum(float(getattr(r, name)) for r in self.robots) / len(self.robots)
@@ -248,13 +252,13 @@ def measure_case(medium: Medium, name: str, case: AirCase, config: AirConfig, wo
                  ) -> CaseResult:
     """Run ``case`` over ``medium`` (called ``name``: tbf or wifi); RuntimeError if a
     process ends during it, MediumFailed if the WiFi medium falls behind real time."""
-    stem = workdir / f"{name}-{case.label}-n{case.n}"
-    probe, leader_record = stem.with_suffix(".csv"), Path(f"{stem}-leader.csv")
+    stem = f"{workdir / name}-{case.label}-n{case.n}"
+    probe, leader_record = Path(f"{stem}.csv"), Path(f"{stem}-leader.csv")
     robots = robot_namespaces(medium, case.n)
     followers = [(ns, follower_command(k)) for k, ns in enumerate(robots, start=1)
                  if case.kind == "wiswarm"]
-    names = ["ground-router", *(f"robot{k}" for k in range(1, case.n + 1)),
-             *(["leader"] if case.kind == "wiswarm" else []), "probe"]
+    senders = [*(["leader"] if case.kind == "wiswarm" else []),
+               *(f"robot{k}" for k in range(1, case.n + 1))]
     children = Children(multiprocessing.get_context("spawn"))
     with children:
         _start(children, medium, case, leader_record)
@@ -264,28 +268,48 @@ def measure_case(medium: Medium, name: str, case: AirCase, config: AirConfig, wo
                            client_of_local_router(), ProbeOptions(topics, str(probe)))
             started = time.time()
             t0, t1 = started + config.warmup, started + config.warmup + config.duration
-            first = _supervise(medium, children, names, procs, t0)
-            last = _supervise(medium, children, names, procs, t1)
+            watch = _Watch(medium, children, ["ground-router", "probe", *senders], procs)
+            first = watch.until(t0)
+            last = watch.until(t1)
             children.stop(["probe"])
+        children.stop(senders)  # before the router they reach the ground through
     metrics = window_metrics(read_record(probe), case.robots, started, t0, t1, IMAGE_BYTES)
     replies, size, polls = (_leader_counts(leader_record, t0, t1) if case.kind == "wiswarm"
                             else (0, 0, 0.0))
-    return CaseResult(name, case, t1 - t0, metrics, last[0] - first[0], last[1] - first[1],
-                      replies, size, polls)
+    counters = ({} if first.medium is None or last.medium is None
+                else window_counters(first.medium, last.medium, t1 - t0))
+    return CaseResult(name, case, t1 - t0, metrics, last.up - first.up,
+                      last.down - first.down, replies, size, polls, counters,
+                      os.getloadavg()[0])
 
 
-def _supervise(medium: Medium, children: Children, names: list[str], procs: list[Cli],
-               until: float) -> tuple[int, int]:
-    """Watch every process (and the WiFi medium) until ``until``; the medium's bytes then."""
-    while (left := until - time.time()) > 0:
-        time.sleep(min(SUPERVISE_PERIOD, left))
-        dead = [name for name in names if not children.alive(name)]
-        dead += [what for what, proc in procs if proc.poll() is not None]
-        if dead:
-            raise RuntimeError(f"a process ended during the run: {dead[0]}")
-        if isinstance(medium, WifiMedium):
-            medium.check()
-    return air_bytes(medium)
+@dataclass(frozen=True)
+class _Snapshot:
+    up: int
+    down: int
+    medium: MediumStats | None  # the WiFi medium's counters
+
+
+class _Watch:
+    """Checks every process (and the WiFi medium) while a run goes on."""
+
+    def __init__(self, medium: Medium, children: Children, names: list[str],
+                 procs: list[Cli]) -> None:
+        self._medium, self._children, self._names, self._procs = medium, children, names, procs
+
+    def until(self, moment: float) -> _Snapshot:
+        """Watch until ``moment``; the medium's counters then. RuntimeError names a
+        process that ended meanwhile."""
+        wifi = self._medium if isinstance(self._medium, WifiMedium) else None
+        while (left := moment - time.time()) > 0:
+            time.sleep(min(SUPERVISE_PERIOD, left))
+            dead = [name for name in self._names if not self._children.alive(name)]
+            dead += [what for what, proc in self._procs if proc.poll() is not None]
+            if dead:
+                raise RuntimeError(f"a process ended during the run: {dead[0]}")
+            if wifi is not None:
+                wifi.check()
+        return _Snapshot(*air_bytes(self._medium), None if wifi is None else wifi.stats())
 
 
 @dataclass
@@ -316,7 +340,8 @@ def _media(config: AirConfig, name: str) -> Iterator[MediumFactory]:
 def run_air(config: AirConfig, workdir: Path,
             progress: Callable[[CaseResult], None] | None = None) -> AirResults:
     """Every medium and N: (c), (a), then (b)'s search for its best rate of the grid
-    (``best_of_grid``: mean AoI against rate is unimodal)."""
+    (``best_of_grid``), the rate below the medium's share tried first: above it every
+    rate overloads the medium, and their ages, all seconds, differ by noise alone."""
     results = AirResults()
     for name in config.media:
         with _media(config, name) as medium_for:
@@ -336,6 +361,6 @@ def run_air(config: AirConfig, workdir: Path,
                 def cost(rate: float, n: int = n) -> float:
                     return measure(AirCase("throttled", n, rate)).mean()
 
-                results.best[(name, n)] = best_of_grid(config.rates,
-                                                       config.share_fps(name, n), cost)
+                results.best[(name, n)] = best_of_grid(
+                    config.rates, config.share_fps(name, n), cost, up_first=False)
     return results

@@ -13,6 +13,7 @@ import math
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.ros2_air import AirResults, CaseResult
+from wiswarm_zenoh.experiments.testbed_study_report import MEDIUM_COLUMNS
 from wiswarm_zenoh.testbed.spec import MAX_FRAME_BYTES, MTU
 
 SEGMENT_BYTES = MTU - 20 - 32  # TCP payload of a full packet: IPv4, TCP with timestamps
@@ -75,6 +76,13 @@ def rows(results: AirResults) -> list[tuple[str, int, CaseResult | None, CaseRes
     return out
 
 
+def case_name(run: CaseResult, results: AirResults) -> str:
+    if run.case.max_hz is None:
+        return "(a) direct" if run.case.kind == "direct" else "(c) WiSwarm"
+    best = results.best.get((run.medium, run.case.n)) == run.case.max_hz
+    return f"(b) throttled {run.case.max_hz:g} Hz{' (best)' if best else ''}"
+
+
 def table(results: AirResults) -> list[str]:
     """One row a run: age at the ground, frames, the channel's bytes; (c)'s floor."""
     lines = ["| medium | N | case | mean AoI (ms) | p95 AoI (ms) | frames/s per robot | "
@@ -82,15 +90,24 @@ def table(results: AirResults) -> list[str]:
     for medium, n, _, _, wiswarm in rows(results):
         c = math.nan if wiswarm is None else wiswarm.mean()
         for run in (r for r in results.runs if (r.medium, r.case.n) == (medium, n)):
-            best = run.case.max_hz is not None and results.best.get((medium, n)) == \
-                run.case.max_hz
-            name = {"direct": "(a) direct", "wiswarm": "(c) WiSwarm"}.get(
-                run.case.kind, f"(b) throttled {run.case.max_hz:g} Hz" + (" (best)" if best
-                                                                          else ""))
-            lines.append(f"| {medium} | {n} | {name} | {_ms(run.mean())} | "
+            lines.append(f"| {medium} | {n} | {case_name(run, results)} | {_ms(run.mean())} | "
                          f"{_ms(run.mean('p95_aoi_s'))} | {run.mean('throughput_fps'):.1f} | "
                          f"{_mb(run.up_bytes)} / {_mb(run.down_bytes)} | "
                          f"{_x(_ratio(run.mean(), c))} |")
+    return lines
+
+
+def medium_lines(results: AirResults) -> list[str]:
+    """Per run, the host's load and the WiFi medium's counters: what the air did."""
+    head = " | ".join(title for _, title, _, _ in MEDIUM_COLUMNS)
+    lines = [f"| medium | N | case | load average | {head} |",
+             "|---|---|---|---|" + "---|" * len(MEDIUM_COLUMNS)]
+    for run in results.runs:
+        cells = " | ".join("-" if key not in run.medium_counters
+                           else format(run.medium_counters[key] * scale, spec)
+                           for key, _, scale, spec in MEDIUM_COLUMNS)
+        lines.append(f"| {run.medium} | {run.case.n} | {case_name(run, results)} | "
+                     f"{run.load:.1f} | {cells} |")
     return lines
 
 
@@ -104,8 +121,8 @@ def floor_lines(results: AirResults) -> list[str]:
             continue
         floor = floor_s(c)
         up, down = needed_bytes(c)
-        s = floor / (n / 2 + 1)
-        lines.append(f"| {medium} | {n} | {_ms(s)} | {_ms(floor)} | {_ms(c.mean())} | "
+        s = floor / (n / 2 + 1) * 1e3
+        lines.append(f"| {medium} | {n} | {s:.1f} | {_ms(floor)} | {_ms(c.mean())} | "
                      f"{_x(_ratio(c.mean(), floor))} | {_mb(c.up_bytes)} / {_mb(c.down_bytes)}"
                      f" | {_mb(up)} / {_mb(down)} | "
                      f"{_x(_ratio(c.up_bytes + c.down_bytes, up + down))} |")
@@ -191,4 +208,5 @@ def report(results: AirResults) -> str:
     """The markdown report: table, floor and bytes, targets."""
     return "\n".join(["## Runs", "", *table(results), "",
                       "## (c) against the floor, and its bytes", "", *floor_lines(results), "",
-                      "## Targets", "", *targets(results), ""])
+                      "## Targets", "", *targets(results), "",
+                      "## The host and the air", "", *medium_lines(results), ""])

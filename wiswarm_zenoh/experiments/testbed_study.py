@@ -121,11 +121,12 @@ class Job:
     search: bool = False
 
 
-def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float]
-                 ) -> float:
+def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float],
+                 up_first: bool = True) -> float:
     """The rate of ``grid`` with the lowest ``cost`` on a unimodal curve: from the grid
     rate just below ``share`` (where queues start to build), towards the better
-    neighbour until a rate is worse than the one before it. Each rate is measured once."""
+    neighbour (the one above tried first, or the one below with ``up_first`` False)
+    until a rate is worse than the one before it. Each rate is measured once."""
     rates = sorted(grid)
     start = max((i for i, r in enumerate(rates) if r <= share), default=0)
     costs: dict[int, float] = {}
@@ -135,10 +136,10 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
             costs[i] = cost(rates[i])
         return costs[i]
 
-    best = start
-    step = 1 if start + 1 < len(rates) and at(start + 1) < at(start) else -1
-    if step == 1:
-        best = start + 1
+    first = 1 if up_first else -1
+    best, step = start, -first
+    if 0 <= start + first < len(rates) and at(start + first) < at(start):
+        best, step = start + first, first
     while 0 <= best + step < len(rates) and at(best + step) < at(best):
         best += step
     return rates[best]
