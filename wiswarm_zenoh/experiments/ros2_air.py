@@ -35,6 +35,7 @@ from pathlib import Path
 
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
 from wiswarm_zenoh.experiments.ros2_air_nodes import (
+    CAMERA_HZ,
     DOMAIN,
     IMAGE_BYTES,
     ProbeOptions,
@@ -64,7 +65,8 @@ log = logging.getLogger(__name__)
 CASES = ("direct", "throttled", "wiswarm")
 MEDIA = ("tbf", "wifi")
 SWARM = "air"
-RATES = (2.0, 3.0, 5.0, 6.0, 7.5, 10.0, 15.0)  # (b)'s grid: 30 Hz / k, each exact
+# (b)'s grid: every rate a 30 Hz camera throttled gives exactly (30 / k Hz) in 2 .. 15
+RATES = tuple(CAMERA_HZ / k for k in (15, 12, 10, 9, 8, 7, 6, 5, 4, 3, 2))
 SUPERVISE_PERIOD = 0.5
 STOP_TIMEOUT = 5.0
 
@@ -87,7 +89,7 @@ class AirCase:
 
     @property
     def label(self) -> str:
-        return f"throttled@{self.max_hz:g}" if self.kind == "throttled" else self.kind
+        return f"throttled@{self.max_hz:.3g}" if self.kind == "throttled" else self.kind
 
     @property
     def robots(self) -> list[str]:
@@ -319,9 +321,10 @@ class AirResults:
     runs: list[CaseResult] = field(default_factory=list)
     best: dict[tuple[str, int], float] = field(default_factory=dict)
 
-    def find(self, medium: str, n: int, label: str) -> CaseResult | None:
-        return next((r for r in self.runs if (r.medium, r.case.n, r.case.label)
-                     == (medium, n, label)), None)
+    def find(self, medium: str, n: int, kind: str, max_hz: float | None = None
+             ) -> CaseResult | None:
+        return next((r for r in self.runs if (r.medium, r.case.n, r.case.kind, r.case.max_hz)
+                     == (medium, n, kind, max_hz)), None)
 
 
 MediumFactory = Callable[[], contextlib.AbstractContextManager[Medium]]

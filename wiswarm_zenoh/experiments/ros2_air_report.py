@@ -70,7 +70,7 @@ def rows(results: AirResults) -> list[tuple[str, int, CaseResult | None, CaseRes
     out = []
     for medium, n in keys:
         best = results.best.get((medium, n))
-        throttled = None if best is None else results.find(medium, n, f"throttled@{best:g}")
+        throttled = None if best is None else results.find(medium, n, "throttled", best)
         out.append((medium, n, results.find(medium, n, "direct"), throttled,
                     results.find(medium, n, "wiswarm")))
     return out
@@ -80,7 +80,7 @@ def case_name(run: CaseResult, results: AirResults) -> str:
     if run.case.max_hz is None:
         return "(a) direct" if run.case.kind == "direct" else "(c) WiSwarm"
     best = results.best.get((run.medium, run.case.n)) == run.case.max_hz
-    return f"(b) throttled {run.case.max_hz:g} Hz{' (best)' if best else ''}"
+    return f"(b) throttled {run.case.max_hz:.3g} Hz{' (best)' if best else ''}"
 
 
 def table(results: AirResults) -> list[str]:
