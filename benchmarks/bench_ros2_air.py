@@ -5,7 +5,7 @@ subscriber at the ground measuring every robot's frames' age, for (a) subscribin
 the robots' topics directly, (b) the same throttled at the robot to the best rate of a
 grid, (c) subscribing to ``wiswarm leader --ros2``'s republished topics (a ``wiswarm
 follower --ros2-topic`` on each robot). Over the 20 Mbit/s tbf channel and ns-3's WiFi
-medium (802.11g). About 15 minutes with the defaults.
+medium (802.11g). About 11 minutes with the defaults (21 runs).
 
     flock /tmp/bench.lock .venv/bin/python benchmarks/bench_ros2_air.py \\
         --out runs/ros2-air --figure docs/ros2_air.png

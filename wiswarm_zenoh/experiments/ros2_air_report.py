@@ -187,13 +187,16 @@ def plot(path: Path, results: AirResults) -> None:
             if c is not None:
                 aoi.hlines(floor_s(c) * 1e3, x - 0.42, x + 0.42, colors="k",
                            linestyles="--", label="floor S(N/2+1)" if x == 0 else None)
-                air.hlines(needed_bytes(c)[0] * 8 / c.duration / 1e6, x + 0.15, x + 0.42,
-                           colors="k", linestyles=":",
-                           label="(c)'s replies need" if x == 0 else None)
+                air.scatter([x + 0.27], [needed_bytes(c)[0] * 8 / c.duration / 1e6], s=40,
+                            marker="x", color="k", zorder=3,
+                            label="(c)'s polls and replies need" if x == 0 else None)
         for ax in (aoi, air):
             ax.set_xticks(range(len(measured)), [f"N = {row[1]}" for row in measured])
             ax.grid(True, axis="y", alpha=0.3)
         aoi.set_yscale("log")
+        low, high = aoi.get_ylim()
+        aoi.set_ylim(low, high * 6)  # room for the legend above the bars
+        air.set_ylim(0, air.get_ylim()[1] * 1.3)
         aoi.set_title(f"{medium}: mean AoI at the ground")
         aoi.set_ylabel("mean AoI per robot (ms)")
         air.set_ylabel("channel to the ground (Mbit/s)")
