@@ -90,7 +90,7 @@ def access_control(roster: Roster) -> dict[str, Any]:
         _rule("leader-polls", ["query"], INGRESS, [updates]),
         _rule("leader-gets-replies", ["reply"], EGRESS, [updates]),
         _rule("leader-watches-members", ["declare_liveliness_subscriber", "liveliness_query"],
-              INGRESS, [keys.members, leaders]),
+              INGRESS, [keys.members, leaders, keys.all_sources]),
         # Any holder of the leader's certificate may run as a standby, under its own name.
         _rule("leader-token", ["liveliness_token"], INGRESS, [leaders]),
         # A standby follows the active leader's control and stats, to take over from them.
@@ -98,7 +98,8 @@ def access_control(roster: Roster) -> dict[str, Any]:
               [keys.control, keys.all_stats, leader_stats]),
         _rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_stats,
                                                        leader_stats]),
-        _rule("leader-sees-tokens", ["liveliness_token"], EGRESS, [keys.members, leaders]),
+        _rule("leader-sees-tokens", ["liveliness_token"], EGRESS,
+              [keys.members, leaders, keys.all_sources]),
         # Who listens and who answers, so that its publishers' matching status and its
         # queriers see the swarm.
         _rule("leader-sees-listeners", ["declare_subscriber", "declare_queryable"], EGRESS,
@@ -130,7 +131,8 @@ def access_control(roster: Roster) -> dict[str, Any]:
             _rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS,
                   [keys.update(follower)]),
             _rule(f"{own}-is-polled", ["query"], EGRESS, [keys.update(follower)]),
-            _rule(f"{own}-is-member", ["liveliness_token"], INGRESS, [keys.member(follower)]),
+            _rule(f"{own}-is-member", ["liveliness_token"], INGRESS,
+                  [keys.member(follower), f"{keys.source(follower)}/**"]),
         ]))
     if roster.observers:
         groups.append(("observers", list(roster.observers), observer_rules))
