@@ -125,7 +125,8 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
                  ) -> float:
     """The rate of ``grid`` with the lowest ``cost`` on a unimodal curve: from the grid
     rate just below ``share`` (where queues start to build), towards the better
-    neighbour until a rate is worse than the one before it. Each rate is measured once."""
+    neighbour until a rate is worse than the one before it. Each rate is measured once,
+    and a grid of one rate is measured too (the caller knows the best: its run is kept)."""
     rates = sorted(grid)
     start = max((i for i, r in enumerate(rates) if r <= share), default=0)
     costs: dict[int, float] = {}
@@ -136,6 +137,7 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
         return costs[i]
 
     best = start
+    at(start)
     step = 1 if start + 1 < len(rates) and at(start + 1) < at(start) else -1
     if step == 1:
         best = start + 1
