@@ -34,8 +34,13 @@ class Sessions:
         self.directory = directory
         self.opened: list[zenoh.Session] = []
 
-    def open(self, name: str) -> zenoh.Session:
-        session = SessionSpec(config_file=str(self.directory / f"{name}.json5")).open()
+    def open(self, name: str, site: str | None = None, *,
+             connect: tuple[str, ...] = (), listen: tuple[str, ...] = ()) -> zenoh.Session:
+        """``name``'s session (of ``site``, in a deployment of sites), endpoints as given
+        on the command line over its config's."""
+        place = self.directory if site is None else self.directory / site
+        session = SessionSpec(config_file=str(place / f"{name}.json5"), connect=connect,
+                              listen=listen).open()
         self.opened.append(session)
         return session
 

@@ -56,7 +56,7 @@ from wiswarm_zenoh.programs.runners import (
     run_router,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
-from wiswarm_zenoh.security.checks import check_identity, check_swarm
+from wiswarm_zenoh.security.checks import check_identity, check_swarm, check_upstream
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
@@ -185,6 +185,7 @@ def _leader(args: argparse.Namespace) -> int:
                             name=args.name, upstream=args.upstream, site=args.site,
                             bridge=ros2_options(args))
     spec = _spec(args, "peer")
+    check_upstream(args.config, args.upstream, args.site or args.swarm)
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
 
