@@ -15,7 +15,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
 from typing import Any, Protocol
@@ -155,6 +155,7 @@ class FollowerOptions:
     frame_bytes: int = FRAME_BYTES
     frame_rate: float = FRAME_RATE
     duration: float | None = None
+    config_file: str | None = None  # its own Zenoh config (a certificate), over the spec's
 
 
 def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
@@ -174,7 +175,9 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     with contextlib.ExitStack() as stack:
         feeds = []
         for option in options:
-            session = stack.enter_context(spec.open())
+            own = spec if option.config_file is None else replace(
+                spec, config_file=option.config_file)
+            session = stack.enter_context(own.open())
             watches.add(session, f"follower {option.follower_id}")
             node = stack.enter_context(
                 Follower(session, option.swarm, option.follower_id, config=option.config))
