@@ -23,7 +23,6 @@ from wiswarm_zenoh.experiments.edge_cloud_run import (
     SetupResult,
     run_edge_cloud,
 )
-from wiswarm_zenoh.testbed import TestbedUnavailable, check_available
 
 TARGET = 1.15
 FIGURES = {  # name -> what it is
@@ -69,11 +68,6 @@ def main() -> int:
                         "K that keeps the WAN busy, 6 in the default setting)")
     parser.add_argument("--duration", type=float, default=15.0, help="seconds per window")
     args = parser.parse_args()
-    try:
-        check_available()
-    except TestbedUnavailable as exc:
-        print(f"bench_edge_cloud_secure: {exc}")
-        return 2
     k = args.in_flight or EdgeCloudConfig().wan_in_flight()
     print(f"edge-cloud, 2 sites x 6 followers, 20 Mbit/s channels, WAN 50 Mbit/s and 20 ms, "
           f"K = {k}, {args.duration:g} s windows; {args.rounds} rounds, open and closed")

@@ -105,3 +105,8 @@ def flushed(leader: zenoh.Session, follower: str) -> None:
     link, at the same priority), so a rogue message of the follower was taken or
     refused by then. The follower must answer on its key with ``answer(..., b"ack")``."""
     until(f"{follower} answers", lambda: b"ack" in replies(leader, KEYS.update(follower), 1.0))
+
+
+def said_in_one_line(code: int, err: str, message: str) -> None:
+    """A command refused its input: exit 2 and one line on stderr, saying ``message``."""
+    assert code == 2 and err.count("\n") == 1 and message in err, err
