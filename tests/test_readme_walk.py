@@ -147,6 +147,19 @@ def test_a_short_testbed_study_runs_quietly(tmp_path: Path) -> None:
     assert "- nothing: every process ran to the end and stopped cleanly" in gains, gains
 
 
+def _the_cloud_gets_both_sites(started: list[Node], routers: list[Node], leaders: list[Node],
+                               followers: list[Node]) -> None:
+    """The leaders (the cloud's first) and followers run to their end, the cloud's table
+    lists both sites' followers; then the routers stop."""
+    started += [*leaders, *followers]
+    for node in (*leaders, *followers):
+        assert node.finish() == 0, node.lines[-5:]
+    summary = "\n".join(leaders[0].lines)
+    assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
+    for router in reversed(routers):
+        router.stop()
+
+
 def test_two_sites_and_a_cloud_step_by_step_run_quietly(tmp_path: Path) -> None:
     cloud, site1, site2 = (free_tcp_port() for _ in range(3))
     with nodes() as started:
@@ -166,13 +179,7 @@ def test_two_sites_and_a_cloud_step_by_step_run_quietly(tmp_path: Path) -> None:
                     for i, port in ((1, site1), (2, site2))]
         followers = [Node(["follower", "--swarm", f"site{i}", "--id", "uav1",
                            *_endpoint(port), *run]) for i, port in ((1, site1), (2, site2))]
-        started += [*leaders, *followers]
-        for node in (*leaders, *followers):
-            assert node.finish() == 0, node.lines[-5:]
-        summary = "\n".join(leaders[0].lines)
-        assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
-        for router in reversed(routers):
-            router.stop()
+        _the_cloud_gets_both_sites(started, routers, leaders, followers)
     for node in started:
         node.quiet()
 
@@ -204,13 +211,7 @@ def test_two_sites_and_a_cloud_secured_step_by_step_run_quietly(tmp_path: Path) 
         followers = [Node(["follower", "--swarm", site, "--id", "uav1", "-c",
                            str(pki / site / "uav1.json5"), *endpoint, *run])
                      for site, endpoint in here.items()]
-        started += [*leaders, *followers]
-        for node in (*leaders, *followers):
-            assert node.finish() == 0, node.lines[-5:]
-        summary = "\n".join(leaders[0].lines)
-        assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
-        for router in reversed(routers):
-            router.stop()
+        _the_cloud_gets_both_sites(started, routers, leaders, followers)
     for node in started:
         node.quiet()
 
