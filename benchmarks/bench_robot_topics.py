@@ -1,12 +1,13 @@
 """A robot's own ROS 2 topic through WiSwarm on loopback (issue 33's target: a median
 age at arrival under 50 ms): N cameras publishing ``sensor_msgs/msg/CompressedImage``
 at 30 Hz in rmw_zenoh's format (a process of their own), a ``wiswarm follower
---ros2-topic`` per camera, ``wiswarm leader --ros2``, all on one ``wiswarm router`` (shared
-memory off: ``wiswarm``'s default); here a subscriber to the leader's republished topics measures each
-message's age at arrival (arrival minus its header stamp: one host clock), and checks
-that the bytes are the camera's (its frame number and size). Beside it, the same
-subscriber on the cameras' own topics (what a ROS 2 team does today: on loopback there
-is no shared air to fill, so this is the floor of Zenoh's own path).
+--ros2-topic`` per camera, ``wiswarm leader --ros2``, all on one ``wiswarm router``
+(shared memory off: ``wiswarm``'s default); here a subscriber to the leader's
+republished topics measures each message's age at arrival (arrival minus its header
+stamp: one host clock), and checks that the bytes are the camera's (its frame number
+and size). Beside it, the same subscriber on the cameras' own topics (what a ROS 2
+team does today: on loopback there is no shared air to fill, so this is the floor of
+Zenoh's own path).
 
     .venv/bin/python benchmarks/bench_robot_topics.py
     .venv/bin/python benchmarks/bench_robot_topics.py -n 8 --seconds 20
@@ -51,7 +52,8 @@ def cameras(port: int, n: int, size: int, stop: multiprocessing.synchronize.Even
     """N cameras in one process (spawn child), each a node of its own, at 30 Hz."""
     import logging
 
-    spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",), multicast_scouting=False)
+    spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",),
+                       multicast_scouting=False)
     with spec.open() as session:
         publishers = [Ros2Node(session, "camera", f"/drone{k}", DOMAIN,
                                BadInputLog(logging.getLogger("camera"))).publisher(
@@ -153,7 +155,8 @@ def main() -> int:
     with processes(port, args.n):
         camera = context.Process(target=cameras, args=(port, args.n, args.bytes, stop))
         camera.start()
-        spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",), multicast_scouting=False)
+        spec = SessionSpec(mode="peer", connect=(f"tcp/127.0.0.1:{port}",),
+                           multicast_scouting=False)
         try:
             with spec.open() as session:
                 ages = measure(session, republished, args.bytes, args.seconds, warmup=5.0)
