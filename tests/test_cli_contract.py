@@ -65,7 +65,7 @@ ALLOWED_BY_FLAG: dict[str, dict[str, str]] = {
     "experiment testbed --warmup": {"0": "no warm-up: the window opens at once"},
 }
 # Values for required flags while another flag is tried, by kind.
-VALID = {"name": "uav1", "int": "3", "dir": "{tmp}/out", "name list": "f1,f2",
+VALID = {"name": "uav1", "int": "3", "dir": "{tmp}/out", "name list": "f1,f2", "site": "s9:f1",
          "rate": "20mbit", "file": "{tmp}/out.mcap"}
 # What would start something: reaching one of these means a bad value got through.
 STARTERS = (
@@ -76,6 +76,7 @@ STARTERS = (
     "wiswarm_zenoh.cli.sim.run_link", "wiswarm_zenoh.cli.sim.run_sweep",
     "wiswarm_zenoh.options.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",
     "wiswarm_zenoh.cli.security.init", "wiswarm_zenoh.cli.security.add_follower",
+    "wiswarm_zenoh.cli.security.add_site",
     "wiswarm_zenoh.cli.edge_cloud.run_edge_cloud", "wiswarm_zenoh.cli.dashboard.serve",
     "wiswarm_zenoh.cli.recording.run_recording",
     "wiswarm_apps.tracking.demo.run",
@@ -205,7 +206,8 @@ def test_the_walk_finds_every_subcommand_and_every_flag_allowed_here() -> None:
     assert {"router", "leader", "follower", "swarm-demo", "sim slotted", "sim wifi",
             "sim link", "testbed up", "testbed down", "testbed set", "experiment sweep",
             "experiment testbed", "experiment tracking", "security init",
-            "security add-follower", "demo"} <= {" ".join(path) for path, _ in commands}
+            "security add-follower", "security add-site",
+            "demo"} <= {" ".join(path) for path, _ in commands}
     flags = {name for path, actions in commands for action in actions
              for name in (_name(action), f"{' '.join(path)} {_name(action)}")}
     assert set(ALLOWED_BY_FLAG) <= flags  # no stale exception

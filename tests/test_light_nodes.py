@@ -21,7 +21,8 @@ print(" ".join(sorted({name.split(".")[0] for name in sys.modules})))
 
 
 @pytest.mark.parametrize("argv", [["follower", "--id", "uav1"], ["leader"], ["router"],
-                                  ["-v", "follower", "--id", "uav1", "--system", "push"]])
+                                  ["-v", "follower", "--id", "uav1", "--system", "push"],
+                                  ["follower", "--id", "uav1", "--ros2-topic", "/drone1/cam"]])
 def test_a_node_loads_no_heavy_library(argv: list[str]) -> None:
     loaded = subprocess.run([sys.executable, "-c", PROBE, *argv], capture_output=True,
                             text=True, check=True).stdout.split()

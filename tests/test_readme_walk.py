@@ -8,11 +8,11 @@ in its one line.
 
 Covered: a swarm by hand (router, leader, two followers), a secured swarm (``wiswarm
 security init``) with an observer's dashboard, a short demo on loopback, two sites and a
-cloud step by step (three routers, a cloud and two edge leaders, a follower a site), a
-short testbed study where root is there; and the missteps: no router where the leader or
-a follower is pointed (said after 3 s, and at the end, exit code 1), a plain endpoint at
-a TLS router, a dashboard port in use. (The demo's comparison over the shared link has
-tests of its own.)"""
+cloud step by step (three routers, a cloud and two edge leaders, a follower a site),
+open and secured (``security init --site``), a short testbed study where root is there;
+and the missteps: no router where the leader or a follower is pointed (said after 3 s,
+and at the end, exit code 1), a plain endpoint at a TLS router, a dashboard port in use.
+(The demo's comparison over the shared link has tests of its own.)"""
 
 from __future__ import annotations
 
@@ -147,6 +147,19 @@ def test_a_short_testbed_study_runs_quietly(tmp_path: Path) -> None:
     assert "- nothing: every process ran to the end and stopped cleanly" in gains, gains
 
 
+def _the_cloud_gets_both_sites(started: list[Node], routers: list[Node], leaders: list[Node],
+                               followers: list[Node]) -> None:
+    """The leaders (the cloud's first) and followers run to their end, the cloud's table
+    lists both sites' followers; then the routers stop."""
+    started += [*leaders, *followers]
+    for node in (*leaders, *followers):
+        assert node.finish() == 0, node.lines[-5:]
+    summary = "\n".join(leaders[0].lines)
+    assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
+    for router in reversed(routers):
+        router.stop()
+
+
 def test_two_sites_and_a_cloud_step_by_step_run_quietly(tmp_path: Path) -> None:
     cloud, site1, site2 = (free_tcp_port() for _ in range(3))
     with nodes() as started:
@@ -166,13 +179,39 @@ def test_two_sites_and_a_cloud_step_by_step_run_quietly(tmp_path: Path) -> None:
                     for i, port in ((1, site1), (2, site2))]
         followers = [Node(["follower", "--swarm", f"site{i}", "--id", "uav1",
                            *_endpoint(port), *run]) for i, port in ((1, site1), (2, site2))]
-        started += [*leaders, *followers]
-        for node in (*leaders, *followers):
-            assert node.finish() == 0, node.lines[-5:]
-        summary = "\n".join(leaders[0].lines)
-        assert "s1.uav1" in summary and "s2.uav1" in summary, leaders[0].lines[-8:]
-        for router in reversed(routers):
-            router.stop()
+        _the_cloud_gets_both_sites(started, routers, leaders, followers)
+    for node in started:
+        node.quiet()
+
+
+def test_two_sites_and_a_cloud_secured_step_by_step_run_quietly(tmp_path: Path) -> None:
+    """As security.md's walkthrough, the routers on free ports (``-l``, ``-e`` over the
+    configs'): the routers refuse nothing, so they say nothing."""
+    cloud, *sites = (free_tcp_port() for _ in range(3))
+    pki = tmp_path / "pki"
+    init = Node(["security", "init", "--out", str(pki), "--swarm", "cloud", "--site",
+                 "s1:uav1", "--site", "s2:uav1", "--port", str(cloud),
+                 "--listen", f"tls/127.0.0.1:{cloud}"])
+    assert init.finish() == 0, init.lines
+    here = {f"s{i}": ["-e", f"tls/127.0.0.1:{port}"] for i, port in enumerate(sites, 1)}
+    with nodes() as started:
+        routers = [Node(["router", "-c", str(pki / "router.json5")])]
+        routers[0].wait_for("listening")
+        routers += [Node(["router", "-c", str(pki / site / "router.json5"), "-l",
+                          f"tls/127.0.0.1:{port}"]) for site, port in zip(here, sites, strict=True)]
+        started += routers
+        for router in routers[1:]:
+            router.wait_for("listening")
+        run = ["--duration", str(RUN)]
+        leaders = [Node(["leader", "--swarm", "cloud", "--in-flight", "6", "-c",
+                         str(pki / "leader.json5"), *run])]
+        leaders += [Node(["leader", "--swarm", site, "--upstream", "cloud", "-c",
+                          str(pki / site / "leader.json5"), *endpoint, *run])
+                    for site, endpoint in here.items()]
+        followers = [Node(["follower", "--swarm", site, "--id", "uav1", "-c",
+                           str(pki / site / "uav1.json5"), *endpoint, *run])
+                     for site, endpoint in here.items()]
+        _the_cloud_gets_both_sites(started, routers, leaders, followers)
     for node in started:
         node.quiet()
 

@@ -34,8 +34,13 @@ class Sessions:
         self.directory = directory
         self.opened: list[zenoh.Session] = []
 
-    def open(self, name: str) -> zenoh.Session:
-        session = SessionSpec(config_file=str(self.directory / f"{name}.json5")).open()
+    def open(self, name: str, site: str | None = None, *,
+             connect: tuple[str, ...] = (), listen: tuple[str, ...] = ()) -> zenoh.Session:
+        """``name``'s session (of ``site``, in a deployment of sites), endpoints as given
+        on the command line over its config's."""
+        place = self.directory if site is None else self.directory / site
+        session = SessionSpec(config_file=str(place / f"{name}.json5"), connect=connect,
+                              listen=listen).open()
         self.opened.append(session)
         return session
 
@@ -100,3 +105,8 @@ def flushed(leader: zenoh.Session, follower: str) -> None:
     link, at the same priority), so a rogue message of the follower was taken or
     refused by then. The follower must answer on its key with ``answer(..., b"ack")``."""
     until(f"{follower} answers", lambda: b"ack" in replies(leader, KEYS.update(follower), 1.0))
+
+
+def said_in_one_line(code: int, err: str, message: str) -> None:
+    """A command refused its input: exit 2 and one line on stderr, saying ``message``."""
+    assert code == 2 and err.count("\n") == 1 and message in err, err

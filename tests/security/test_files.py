@@ -69,6 +69,7 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
         ("declare_queryable", "ingress", KEYS.update("f1")),
         ("reply", "ingress", KEYS.update("f1")), ("query", "egress", KEYS.update("f1")),
         ("liveliness_token", "ingress", KEYS.member("f1")),
+        ("liveliness_token", "ingress", f"{KEYS.source('f1')}/**"),
         ("declare_subscriber", "ingress", KEYS.control), ("put", "egress", KEYS.control)}
     observer = _allowed(_rules_of(router, "o1"))  # read-only: what the dashboard and
     assert {m for m, f, _ in observer if f == "ingress"} == {  # wiswarm record read

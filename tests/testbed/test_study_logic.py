@@ -4,13 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from wiswarm_zenoh.experiments.testbed_study import (
-    Job,
-    StudyConfig,
-    best_of_grid,
-    best_rate,
-    plan,
-)
+from wiswarm_zenoh.experiments.testbed_study import Job, StudyConfig, best_rate, plan
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.run import RunOutcome, RunSpec, window_metrics
 
@@ -42,23 +36,6 @@ def test_the_search_finds_the_minimum_of_a_unimodal_curve_in_few_runs() -> None:
     chosen, measured = _search(config, 8, curve)
     assert chosen == 5.0
     assert len(measured) <= 3
-
-
-def test_the_search_tried_below_first_leaves_an_overloaded_start() -> None:
-    """Both rates above the share overload the channel and their ages are noise (the
-    WiFi medium at N = 8, measured): tried upwards first the search stays there, tried
-    downwards first it finds the rate that fits."""
-    curve = {2.0: 260.0, 3.0: 200.0, 5.0: 1558.0, 6.0: 1369.0, 7.5: 2227.0, 10.0: 3000.0}
-    measured: list[float] = []
-
-    def cost(rate: float) -> float:
-        measured.append(rate)
-        return curve[rate]
-
-    assert best_of_grid(list(curve), 5.05, cost) == 6.0
-    measured.clear()
-    assert best_of_grid(list(curve), 5.05, cost, up_first=False) == 3.0
-    assert measured == [3.0, 5.0, 2.0]
 
 
 def test_the_plan_has_every_system_at_every_n() -> None:

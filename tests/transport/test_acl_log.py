@@ -34,3 +34,20 @@ def test_refusals_are_shown_once_each_and_allowed_messages_and_tables_not_at_all
         b"wiswarm/S/control\n",
         b"wiswarm router: listening on tls/127.0.0.1:7447\n",
     ]
+
+
+def test_declarations_held_back_on_their_way_out_are_not_refusals_to_show() -> None:
+    """Routers pass every declaration to every router: a cloud's router keeps each site's
+    from the others as a matter of course; a put held back still shows."""
+    def egress(message: bytes, key: bytes) -> bytes:
+        return _decision(b"unauthorized", message, key).replace(b"(ingress)", b"(egress)")
+
+    denials = DenialFilter()
+    shown = [denials.feed(line) for line in (
+        egress(b"Declare Queryable", b"wiswarm/C/s1.uav1/update"),
+        egress(b"Undeclare Subscriber", b"wiswarm/C/control"),
+        egress(b"Liveliness Token", b"wiswarm/C/members/s1.uav1"),
+        egress(b"Undeclare Liveliness Token", b"wiswarm/C/members/s1.uav1"),
+        egress(b"Put", b"wiswarm/C/s1.uav1/fresh"))]
+    assert shown == [None] * 4 + [b"2026-11-23T11:35:12.048846Z  WARN access control "
+                                  b"refused f2: Put (egress) on wiswarm/C/s1.uav1/fresh\n"]

@@ -51,7 +51,7 @@ def edge_cloud_config(args: argparse.Namespace) -> EdgeCloudConfig:
         return EdgeCloudConfig(
             sites=args.sites, followers=args.followers, local=local, wan=wan,
             in_flight=args.in_flight, duration=args.duration, warmup=args.warmup,
-            frame_bytes=args.frame_bytes)
+            frame_bytes=args.frame_bytes, secure=args.secure)
     except ValueError as exc:
         raise _flag_error(exc) from None
 
@@ -63,7 +63,8 @@ def _edge_cloud(args: argparse.Namespace) -> int:
     setups = config.setups()
     print(f"edge-cloud: {config.sites} sites x {config.followers} followers on "
           f"{format_rate(config.local.rate_bps)} channels, WAN "
-          f"{format_rate(config.wan.rate_bps)} and {config.wan.delay_s * 1e3:g} ms; "
+          f"{format_rate(config.wan.rate_bps)} and {config.wan.delay_s * 1e3:g} ms"
+          f"{', closed' if config.secure else ''}; "
           f"{', '.join(s.label for s in setups)}; {len(setups)} runs of about "
           f"{config.warmup + config.duration:g} s; output in {out}", file=sys.stderr)
     results = run_edge_cloud(config, out / "records", ProgressBar("edge-cloud"))
@@ -99,6 +100,10 @@ def register_edge_cloud(studies: Any) -> None:
                         "every pair was delivered (default 5)")
     parser.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                         help=f"bytes per camera frame (default {FRAME_BYTES} = 224x224)")
+    parser.add_argument("--secure", action="store_true",
+                        help="run closed: every node with its own certificate over TLS, "
+                        "every router with its access control, as wiswarm security init "
+                        "--site writes them (no direct setup: the cloud polls the edges only)")
     parser.add_argument("--out", type=writable_dir(), metavar="DIR",
                         help="output directory (runs/edge-cloud-<timestamp>)")
     add_channel_arguments(parser)

@@ -61,7 +61,7 @@ from wiswarm_zenoh.programs.runners import (
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
 from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_topic
 from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
-from wiswarm_zenoh.security.checks import check_identity, check_swarm
+from wiswarm_zenoh.security.checks import check_identity, check_swarm, check_upstream
 from wiswarm_zenoh.transport.source_feed import ZenohSource
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
@@ -192,6 +192,7 @@ def _leader(args: argparse.Namespace) -> int:
                             name=args.name, upstream=args.upstream, site=args.site,
                             bridge=ros2_options(args))
     spec = _spec(args, "peer")
+    check_upstream(args.config, args.upstream, args.site or args.swarm)
     table, rates = LiveTable(), PollRates()
     title = f"wiswarm leader: swarm {args.swarm!r}, policy {config.policy}"
 

@@ -1,14 +1,17 @@
-"""``wiswarm security init | add-follower``: a swarm closed to all but its members, with
-Zenoh's mutual TLS and the router's access control (see wiswarm_zenoh/security)."""
+"""``wiswarm security init | add-follower | add-site``: a swarm, or a deployment of sites
+and a cloud, closed to all but its members, with Zenoh's mutual TLS and the routers'
+access control (see wiswarm_zenoh/security)."""
 
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from wiswarm_zenoh.options import (
     LISTEN_ENDPOINT,
+    ArgType,
     OneLineParser,
     UsageError,
     add_ros2_arguments,
@@ -20,88 +23,170 @@ from wiswarm_zenoh.options import (
     writable_dir,
 )
 from wiswarm_zenoh.security import configs
-from wiswarm_zenoh.security.acl import Roster
-from wiswarm_zenoh.security.deploy import ROUTER_CONFIG, Plan, add_follower, init
+from wiswarm_zenoh.security.acl import MAX_COMMON_NAME, Roster
+from wiswarm_zenoh.security.deploy import (
+    ROUTER_CONFIG,
+    Place,
+    Plan,
+    SitePlan,
+    add_follower,
+    add_site,
+    init,
+    load,
+    places,
+)
+from wiswarm_zenoh.security.hierarchy import check_site
 
 DEFAULT_SWARM = "swarm"  # as `wiswarm leader|follower`, so that no --swarm is needed there
-
-
+MAX_PORT = 65535
 MAX_DAYS = 36500  # a certificate's end must be a date Python and X.509 can write
-# X.509 common names are at most 64 characters; the CA's is "wiswarm <swarm> CA".
-MAX_NAME = 64
-MAX_SWARM = MAX_NAME - len("wiswarm  CA")
-_FOLLOWER = node_name("follower id", follower=True, most=MAX_NAME)
-def _next_steps(directory: Path, roster: Roster, followers: tuple[str, ...]) -> list[str]:
-    swarm = "" if roster.swarm == DEFAULT_SWARM else f" --swarm {roster.swarm}"
-    return [f"  wiswarm router -c {directory / ROUTER_CONFIG}",
-            f"  wiswarm leader{swarm} -c {directory / roster.leader}.json5",
-            *[f"  wiswarm follower{swarm} --id {f} -c {directory / f}.json5" for f in followers]]
+# The CA's common name is "wiswarm <swarm> CA".
+MAX_SWARM = MAX_COMMON_NAME - len("wiswarm  CA")
+_FOLLOWER = node_name("follower id", follower=True, most=MAX_COMMON_NAME)
+_HOST = host_name()
+T = TypeVar("T")
+
+
+def _site_and(kind: str, item: ArgType[tuple[T, ...]],
+              example: str) -> ArgType[tuple[str, tuple[T, ...]]]:
+    """``SITE:ITEMS``: a site name and a list of ``item``."""
+    def parse(text: str) -> tuple[str, tuple[T, ...]]:
+        site, sep, rest = text.partition(":")
+        if not sep:
+            raise ValueError(f"expected {example}, got {text[:60]!r}")
+        return check_site(site), item.parse(rest)
+
+    return ArgType(kind, parse)
+
+
+SITE = _site_and("site", listed(_FOLLOWER, "f1,f2"), "SITE:F1,F2")
+SITE_HOSTS = _site_and("site hosts", listed(_HOST, "h1,h2"), "SITE:HOST1,HOST2")
+
+
+def _flag(swarm: str) -> str:
+    return "" if swarm == DEFAULT_SWARM else f" --swarm {swarm}"
+
+
+def _followers(place: Place, followers: tuple[str, ...]) -> list[str]:
+    """The commands that start ``followers`` of ``place``."""
+    roster = place.roster
+    return [f"  wiswarm follower{_flag(roster.swarm)} --id {f} -c {place.directory / f}.json5"
+            for f in followers]
+
+
+def _next_steps(place: Place) -> list[str]:
+    """The commands that start ``place``'s router and nodes."""
+    roster = place.roster
+    upstream = "" if roster.upstream is None else f" --upstream {roster.upstream}"
+    return [f"  wiswarm router -c {place.directory / ROUTER_CONFIG}",
+            f"  wiswarm leader{_flag(roster.swarm)}{upstream} -c "
+            f"{place.directory / roster.leader}.json5", *_followers(place, roster.followers)]
+
+
+def _sites(args: argparse.Namespace) -> tuple[SitePlan, ...]:
+    hosts = dict(args.site_hosts)
+    names = [name for name, _ in args.site]
+    unknown = sorted(set(hosts) - set(names))
+    if unknown:
+        raise UsageError(f"--site-hosts {unknown[0]}: no such site (give it with --site)")
+    if args.port + len(names) > MAX_PORT:
+        raise UsageError(f"--port {args.port}: site k's router listens on PORT + k, "
+                         f"at most {MAX_PORT}")
+    return tuple(SitePlan(name, followers, args.port + k, hosts.get(name, ()))
+                 for k, (name, followers) in enumerate(args.site, start=1))
 
 
 def _init(args: argparse.Namespace) -> int:
+    if (args.followers is None) == (not args.site):
+        raise UsageError("give --followers (one swarm) or --site (a deployment of sites "
+                         "and a cloud), not both")
+    sites = _sites(args)
     try:
         ros2 = ros2_options(args)
-        roster = Roster(args.swarm, args.leader, args.followers, args.observers,
+        roster = Roster(args.swarm, args.leader, args.followers or (), args.observers,
                         None if ros2 is None else (ros2.domain, ros2.namespace))
         plan = Plan(roster, args.hosts, args.days,
                     tuple(args.listen) or (f"tls/0.0.0.0:{args.port}",),
-                    tuple(configs.endpoints(args.hosts, args.port)))
+                    tuple(configs.endpoints(args.hosts, args.port)), sites)
         written = init(args.out, plan)
     except (ValueError, OSError) as exc:
         raise UsageError(str(exc)) from None
     directory = args.out.resolve()
     print(f"wiswarm security: {len(written)} files in {directory} (keep *-key.pem secret; "
-          "copy each node its own certificate, key, config and ca.pem)")
-    print("\n".join(["start the swarm with:", *_next_steps(directory, roster,
-                                                           roster.followers)]))
+          "copy each node its own certificate, key, config and ca.pem"
+          f"{', each site its directory' if sites else ''})")
+    found = places(directory, plan)
+    steps = _next_steps(found[None])
+    for site in sites:
+        steps += [f"  # site {site.name} (its router listens on port {site.port}):",
+                  *_next_steps(found[site.name])]
+    print("\n".join([f"start the {'deployment' if sites else 'swarm'} with:", *steps]))
     return 0
 
 
-def _add_follower(args: argparse.Namespace) -> int:
+def _changed(args: argparse.Namespace, change: Callable[[Path], object]) -> tuple[Path, Plan]:
+    """Run ``change`` on the directory ``init`` wrote; its problems in one line."""
     directory = args.out.resolve()
     try:
-        add_follower(directory, args.follower)
+        change(directory)
     except FileNotFoundError as exc:
         raise UsageError(f"{exc.filename}: not found (run `wiswarm security init --out "
                          f"{args.out}` first)") from None
     except (ValueError, OSError, KeyError) as exc:
         raise UsageError(f"{directory}: {exc}") from None
+    return directory, load(directory)
+
+
+def _add_follower(args: argparse.Namespace) -> int:
+    directory, plan = _changed(args, lambda d: add_follower(d, args.follower, args.site))
+    place = places(directory, plan)[args.site]
     print(f"wiswarm security: follower {args.follower} added; restart the router "
-          f"({directory / ROUTER_CONFIG}) for its new rules, then start it with:")
-    print(f"  wiswarm follower --id {args.follower} -c {directory / args.follower}.json5")
+          f"({place.directory / ROUTER_CONFIG}) for its new rules, then start it with:")
+    print("\n".join(_followers(place, (args.follower,))))
     return 0
 
 
-def register(subparsers: Any) -> None:
-    security = subparsers.add_parser(
-        "security", help="certificates and access control for a closed swarm",
-        description="Makes a certificate authority, a certificate per node and Zenoh "
-        "configs: a router listening on TLS only, with mutual TLS and access control by "
-        "certificate common name, and clients for the leader, the followers and observers.")
-    commands = security.add_subparsers(dest="action", metavar="ACTION",
-                                       parser_class=OneLineParser)
-    commands.required = True
+def _add_site(args: argparse.Namespace) -> int:
+    name, followers = args.site
+    directory, plan = _changed(args, lambda d: add_site(d, name, followers, args.hosts))
+    print(f"wiswarm security: site {name} added (its router listens on port "
+          f"{plan.site(name).port}); restart the cloud's router "
+          f"({directory / ROUTER_CONFIG}) for its new rules, then start the site with:")
+    print("\n".join(_next_steps(places(directory, plan)[name])))
+    return 0
+
+
+def _add_init(commands: Any) -> None:
     start = commands.add_parser("init", help="a new CA, certificates and configs")
     start.add_argument("--out", required=True, metavar="DIR", type=writable_dir(),
                        help="where to write them")
     start.add_argument("--swarm", default=DEFAULT_SWARM,
                        type=node_name("swarm name", most=MAX_SWARM),
-                       help=f"swarm name, a key chunk (default {DEFAULT_SWARM})")
-    start.add_argument("--followers", type=listed(_FOLLOWER, "f1,f2"),
-                       required=True, metavar="F1,F2,...",
+                       help=f"swarm name, a key chunk (default {DEFAULT_SWARM}); with --site, "
+                       "the cloud's")
+    start.add_argument("--followers", type=listed(_FOLLOWER, "f1,f2"), metavar="F1,F2,...",
                        help="follower ids (each one's certificate common name)")
+    start.add_argument("--site", type=SITE, action="append", default=[],
+                       metavar="SITE:F1,F2",
+                       help="instead of --followers: a site and its followers (repeatable). "
+                       "Each site gets a directory: its router (dialing the cloud's), its edge "
+                       "leader (swarm SITE, --upstream the cloud's swarm) and its followers")
+    start.add_argument("--site-hosts", type=SITE_HOSTS, action="append", default=[],
+                       metavar="SITE:H1,H2",
+                       help="a site's router's host names or addresses (as --hosts; "
+                       "repeatable). Site k's router listens on PORT + k")
     start.add_argument("--leader", default="leader",
-                       type=node_name("leader name", most=MAX_NAME),
-                       help="the leader's name (default leader)")
+                       type=node_name("leader name", most=MAX_COMMON_NAME),
+                       help="the leader's name (default leader); every site's edge leader's too")
     start.add_argument("--observers",
-                       type=listed(node_name("observer name", most=MAX_NAME), "o1,o2"),
+                       type=listed(node_name("observer name", most=MAX_COMMON_NAME), "o1,o2"),
                        default=(), metavar="O1,...",
                        help="nodes that may read stats and fresh data, nothing else")
-    start.add_argument("--hosts", type=listed(host_name(), "h1,h2"), default=(),
+    start.add_argument("--hosts", type=listed(_HOST, "h1,h2"), default=(),
                        metavar="H1,...",
                        help="the router's host names or addresses (certificate SANs besides "
                        "localhost and 127.0.0.1; nodes connect to them, default 127.0.0.1)")
-    start.add_argument("--port", type=integer(1, 65535), default=configs.DEFAULT_PORT,
+    start.add_argument("--port", type=integer(1, MAX_PORT), default=configs.DEFAULT_PORT,
                        help=f"the router's TLS port (default {configs.DEFAULT_PORT})")
     start.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
                        type=LISTEN_ENDPOINT,
@@ -111,10 +196,33 @@ def register(subparsers: Any) -> None:
     add_ros2_arguments(start, updates=False, what="let the leader run with --ros2: its "
                        "ROS 2 topics, Paths in and node tokens are allowed, nothing more")
     start.set_defaults(func=_init, needs="security")
+
+
+def register(subparsers: Any) -> None:
+    security = subparsers.add_parser(
+        "security", help="certificates and access control for a closed swarm",
+        description="Makes a certificate authority, a certificate per node and Zenoh "
+        "configs: a router listening on TLS only, with mutual TLS and access control by "
+        "certificate common name, and clients for the leader, the followers and observers; "
+        "with --site, a cloud's router and leader and each site's router, edge leader and "
+        "followers, no site able to answer for, read or poll another.")
+    commands = security.add_subparsers(dest="action", metavar="ACTION",
+                                       parser_class=OneLineParser)
+    commands.required = True
+    _add_init(commands)
     add = commands.add_parser("add-follower", help="a certificate and config for one more "
-                              "follower; rewrites the router's rules")
+                              "follower; rewrites its router's rules")
     add.add_argument("--out", required=True, metavar="DIR", type=writable_dir(),
                      help="the directory init wrote")
-    add.add_argument("follower", type=_FOLLOWER,
-                     help="the new follower's id")
+    add.add_argument("--site", type=node_name("site name"),
+                     help="the follower's site, in a deployment of sites")
+    add.add_argument("follower", type=_FOLLOWER, help="the new follower's id")
     add.set_defaults(func=_add_follower, needs="security")
+    site = commands.add_parser("add-site", help="a new site of a deployment: its "
+                               "certificates and configs; rewrites the cloud's router's rules")
+    site.add_argument("--out", required=True, metavar="DIR", type=writable_dir(),
+                      help="the directory init --site wrote")
+    site.add_argument("--hosts", type=listed(_HOST, "h1,h2"), default=(), metavar="H1,...",
+                      help="the site's router's host names or addresses (default 127.0.0.1)")
+    site.add_argument("site", type=SITE, metavar="SITE:F1,F2", help="the site and its followers")
+    site.set_defaults(func=_add_site, needs="security")

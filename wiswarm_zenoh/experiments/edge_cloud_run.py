@@ -10,9 +10,11 @@
 - ``edge alone``: the edge leaders without a cloud: the local floor.
 
 Each setup gets swarms of its own names and fresh processes; routers and relays stay up
-for the whole experiment. AoI is measured as in ``run``: from the capture time every
-synthetic frame carries (one host clock), over a window after a warm-up, which starts
-once every follower was delivered where it is measured (the cloud, or the edge).
+for the whole experiment. With ``secure`` every node runs closed (``edge_cloud_secure``)
+and the cloud polls the edges only (no ``direct``: its rules have no such path). AoI is
+measured as in ``run``: from the capture time every synthetic frame carries (one host
+clock), over a window after a warm-up, which starts once every follower was delivered
+where it is measured (the cloud, or the edge).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import functools
 import logging
 import math
 import multiprocessing
+import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -31,14 +34,8 @@ from typing import Any
 
 from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.experiments.edge_cloud_nodes import LeadersOptions, run_leaders, run_relays
-from wiswarm_zenoh.experiments.edge_cloud_topology import (
-    MAX_SITES,
-    EdgeCloud,
-    Site,
-    WanSpec,
-    client_of_local_router,
-    cloud_router,
-)
+from wiswarm_zenoh.experiments.edge_cloud_secure import CLOUD, Specs
+from wiswarm_zenoh.experiments.edge_cloud_topology import MAX_SITES, EdgeCloud, Site, WanSpec
 from wiswarm_zenoh.experiments.testbed_study import FRAME_OVERHEAD
 from wiswarm_zenoh.programs.demo import Children
 from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_HEADER_BYTES
@@ -54,7 +51,7 @@ SAMPLE_RATE = 100.0  # cameras, fps (the paper's WiSwarm)
 READY_TIMEOUT = 60.0  # s for a setup's leaders to deliver every follower once
 SUPERVISE_PERIOD = 0.5
 MAX_FOLLOWERS = 100  # per site
-FOLLOWERS, EDGES, CLOUD = range(3)  # layers of a setup's processes, started in this order
+FOLLOWERS, EDGES, CLOUD_LAYER = range(3)  # layers of a setup's processes, started in this order
 
 
 @dataclass(frozen=True)
@@ -92,6 +89,7 @@ class EdgeCloudConfig:
     duration: float = 15.0
     warmup: float = 5.0
     frame_bytes: int = FRAME_BYTES
+    secure: bool = False  # every node with its certificate, every router its rules
 
     def __post_init__(self) -> None:
         if not 1 <= self.sites <= MAX_SITES:
@@ -129,7 +127,8 @@ class EdgeCloudConfig:
     def setups(self) -> list[Setup]:
         ks = self.in_flight or tuple(dict.fromkeys((1, self.wan_in_flight(), self.pairs,
                                                     "auto")))
-        return [Setup("direct"), *(Setup("hierarchy", k) for k in ks), Setup("edge")]
+        direct = [] if self.secure else [Setup("direct")]
+        return [*direct, *(Setup("hierarchy", k) for k in ks), Setup("edge")]
 
     @property
     def ids(self) -> list[str]:
@@ -171,8 +170,11 @@ class EdgeCloudResults:
 Progress = Callable[[int, int], None]
 
 
-def _swarms(setup: Setup, site: Site) -> tuple[str, str]:
-    """(the site's swarm, the prefix of its cloud swarms), unique to the setup."""
+def _swarms(setup: Setup, site: Site, specs: Specs) -> tuple[str, str]:
+    """(the site's swarm, the cloud's swarm), unique to the setup but where the
+    deployment's rules name them."""
+    if specs.secure:
+        return site.name, CLOUD
     if setup.kind == "direct":
         return "ec-d", "ec-d"
     return f"ec-{setup.tag}-{site.name}", f"ec-{setup.tag}-c"
@@ -216,15 +218,16 @@ class Layers:
 
 
 def _start_site(layers: Layers, config: EdgeCloudConfig, setup: Setup, site: Site,
-                records: Path) -> None:
+                records: Path, specs: Specs) -> None:
     """The site's followers and, but for ``direct``, its edge leader."""
-    swarm, cloud = _swarms(setup, site)
+    swarm, cloud = _swarms(setup, site, specs)
     ids = config.ids
     named = [f"{site.name}.{f}" for f in ids] if setup.kind == "direct" else ids
     followers = [FollowerOptions(swarm, fid, frame_bytes=config.frame_bytes,
-                                 frame_rate=SAMPLE_RATE) for fid in named]
+                                 frame_rate=SAMPLE_RATE,
+                                 config_file=specs.follower_config(site, fid)) for fid in named]
     layers.start(FOLLOWERS, f"followers-{site.name}", run_in, site.channel.follower_ns,
-                 run_followers, site.placement.follower(), followers)
+                 run_followers, specs.followers(site), followers)
     if setup.kind == "direct":
         return
     parents = () if setup.kind == "edge" else tuple(
@@ -234,23 +237,23 @@ def _start_site(layers: Layers, config: EdgeCloudConfig, setup: Setup, site: Sit
                           prefix=f"{site.name}.", parents=parents, site=site.name,
                           name=f"edge-{site.name}")
     layers.start(EDGES, f"edge-{site.name}", run_in, site.channel.leader_ns, run_leaders,
-                 client_of_local_router(), edge)
+                 specs.leader(site), edge)
 
 
 def _start(layers: Layers, net: EdgeCloud, config: EdgeCloudConfig, setup: Setup,
-           records: Path) -> list[str]:
+           records: Path, specs: Specs) -> list[str]:
     """Followers, edge leaders and cloud leaders of ``setup``, ready once every pair has
     been delivered where it is measured; returns the pair names."""
     pairs = config.pair_names(net.sites)
     for site in net.sites:
-        _start_site(layers, config, setup, site, records)
+        _start_site(layers, config, setup, site, records, specs)
     if setup.kind != "edge":
-        swarm, cloud = _swarms(setup, net.sites[0])
+        swarm, cloud = _swarms(setup, net.sites[0], specs)
         leaders = LeadersOptions((swarm if setup.kind == "direct" else cloud,),
                                  str(records / f"{setup.tag}-cloud.csv"),
                                  expect=tuple(pairs), name="cloud", in_flight=setup.k)
-        layers.start(CLOUD, "cloud", run_in, net.cloud_ns, run_leaders,
-                     client_of_local_router(), leaders)
+        layers.start(CLOUD_LAYER, "cloud", run_in, net.cloud_ns, run_leaders,
+                     specs.leader(None), leaders)
     layers.wait_ready()
     return pairs
 
@@ -262,7 +265,7 @@ def _least_age(rows: dict[str, list[tuple[float, float]]], t0: float, t1: float)
 
 def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: EdgeCloudConfig,
                   setup: Setup, records: Path, stop: threading.Event,
-                  tick: Callable[[float], None]) -> SetupResult:
+                  tick: Callable[[float], None], specs: Specs) -> SetupResult:
     """Run ``setup`` for its warm-up and window; ``tick(fraction done)`` as it goes; a
     set ``stop`` ends the window early (what was measured is kept). A process that ends
     (``links`` too: routers, relays) is started again, and the event noted."""
@@ -270,7 +273,7 @@ def measure_setup(net: EdgeCloud, links: tuple[Children, list[str]], config: Edg
     log.info("edge-cloud: %s starting", setup.label)
     with contextlib.ExitStack() as stack:
         layers = Layers(stack, *links)
-        pairs = _start(layers, net, config, setup, records)
+        pairs = _start(layers, net, config, setup, records, specs)
         started = time.time()
         t0, t1 = started + config.warmup, started + config.warmup + config.duration
         before = None
@@ -315,19 +318,20 @@ def _wan(net: EdgeCloud) -> list[tuple[int, int]]:
     return [(net.wan_up(s).sent_bytes, net.wan_down(s).sent_bytes) for s in net.sites]
 
 
-def _start_links(children: Children, net: EdgeCloud) -> list[str]:
+def _start_links(children: Children, net: EdgeCloud, specs: Specs) -> list[str]:
     """The cloud router, the relays, then the site routers (which dial the cloud);
     returns the children's names."""
     names = ["cloud-router"]
-    children.start(names[-1], run_in, net.cloud_ns, run_router, cloud_router(), wait=False)
+    children.start(names[-1], run_in, net.cloud_ns, run_router, specs.cloud_router(),
+                   wait=False)
     for ns, hops in net.relays().items():
         names.append(f"relays-{ns}")
         children.start(names[-1], run_in, ns, run_relays, hops, wait=False)
     children.wait_ready()
     for site in net.sites:
         names.append(f"router-{site.name}")
-        children.start(names[-1], run_in, site.channel.leader_ns, run_router, site.router(),
-                       wait=False)
+        children.start(names[-1], run_in, site.channel.leader_ns, run_router,
+                       specs.site_router(site), wait=False)
     children.wait_ready()
     return names
 
@@ -347,15 +351,17 @@ def run_edge_cloud(config: EdgeCloudConfig, records: Path, progress: Progress,
     progress(0, len(setups))
     try:
         with EdgeCloud(config.sites, config.local, config.wan) as net, \
+                tempfile.TemporaryDirectory() as tmp, \
                 Children(multiprocessing.get_context("spawn")) as links:
             log.info("%s", net.describe())
-            link_names = _start_links(links, net)
+            specs = Specs(net, config.ids, Path(tmp) / "pki" if config.secure else None)
+            link_names = _start_links(links, net, specs)
             for done, setup in enumerate(setups):
                 if stop.is_set():
                     break
                 tick = functools.partial(_redraw, progress, done, len(setups))
                 result = measure_setup(net, (links, link_names), config, setup, records,
-                                       stop, tick)
+                                       stop, tick, specs)
                 if result.window_s > 0:
                     results.results.append(result)
                 progress(done + 1, len(setups))

@@ -126,7 +126,8 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
     """The rate of ``grid`` with the lowest ``cost`` on a unimodal curve: from the grid
     rate just below ``share`` (where queues start to build), towards the better
     neighbour (the one above tried first, or the one below with ``up_first`` False)
-    until a rate is worse than the one before it. Each rate is measured once."""
+    until a rate is worse than the one before it. Each rate is measured once, and a grid
+    of one rate is measured too (the caller knows the best: its run is kept)."""
     rates = sorted(grid)
     start = max((i for i, r in enumerate(rates) if r <= share), default=0)
     costs: dict[int, float] = {}
@@ -138,6 +139,7 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
 
     first = 1 if up_first else -1
     best, step = start, -first
+    at(start)
     if 0 <= start + first < len(rates) and at(start + first) < at(start):
         best, step = start + first, first
     while 0 <= best + step < len(rates) and at(best + step) < at(best):

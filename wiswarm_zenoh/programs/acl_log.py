@@ -7,6 +7,11 @@ node first declares something on a key, a table of its permissions there (every 
 type in turn) follows ``caching permissions for `<key>` ``: what it *may* do, not what
 it tried, so the table is dropped. The face names the certificate's common name, which
 is remembered for the cached results, whose lines carry only the session id.
+
+A declaration refused on its way out (egress) is dropped too: routers pass every
+declaration to every router they are linked to, so a cloud's router keeps each site's
+from the others (and from itself, what it does not need) as a matter of course; what a
+node tried shows as an ingress refusal, and a message held back as a put, query or reply.
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ WRONG_PROTOCOL = b"InvalidContentType"
 WRONG_PROTOCOL_SAID = (b"WARN a node reached this TLS endpoint without TLS (a tcp/ "
                        b"endpoint, or no certificates): give it tls/HOST:PORT and its "
                        b"config from wiswarm security (said once)\n")
+DECLARED = (b"Subscriber", b"Queryable", b"Token")  # (un)declarations, tokens too
 TABLE_ROWS = 9  # message types in a table: query, reply, put, delete, three declarations,
 # liveliness query and liveliness subscriber (Zenoh 1.10)
 
@@ -67,7 +73,8 @@ class DenialFilter:
         if not decision["cached"] and self._table_rows.get(thread):
             self._table_rows[thread] -= 1
             return None
-        if not decision["verdict"]:
+        if not decision["verdict"] or (decision["flow"] == b"egress"
+                                       and decision["message"].endswith(DECLARED)):
             return None
         who = self._names.get(decision["zid"], decision["zid"])
         return (b"%s  WARN access control refused %s: %s (%s) on %s\n"

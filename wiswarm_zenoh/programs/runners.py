@@ -15,7 +15,7 @@ import signal
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
 from typing import Any, Protocol
@@ -165,6 +165,7 @@ class FollowerOptions:
     source: ZenohSource | Ros2TopicSource | None = None
     waypoints_topic: str | None = None
     ros_domain: int = 0
+    config_file: str | None = None  # its own Zenoh config (a certificate), over the spec's
 
 
 def run_follower(spec: SessionSpec, options: FollowerOptions, stop: StopSignal,
@@ -184,7 +185,9 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     with contextlib.ExitStack() as stack:
         feeds = []
         for option in options:
-            session = stack.enter_context(spec.open())
+            own = spec if option.config_file is None else replace(
+                spec, config_file=option.config_file)
+            session = stack.enter_context(own.open())
             watches.add(session, f"follower {option.follower_id}")
             waypoints = None if option.waypoints_topic is None else WaypointsPublisher(
                 session, option.follower_id, option.waypoints_topic, option.ros_domain)

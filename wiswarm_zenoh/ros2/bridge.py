@@ -161,7 +161,7 @@ class Ros2Bridge:
     def _source(self, follower: str) -> Ros2Publisher | None:
         """The publisher of a follower's ROS 2 source republished (and its waypoint
         subscription), or None if it serves none."""
-        source = self._republisher.publisher(follower, ros_token(follower))
+        source = self._republisher.publisher(follower)
         if source is not None:
             self._waypoints_in(follower)
         return source

@@ -12,7 +12,7 @@ import threading
 
 import zenoh
 
-from wiswarm_zenoh.ros2.graph import check_topic
+from wiswarm_zenoh.ros2.graph import check_topic, ros_token
 from wiswarm_zenoh.ros2.messages import RosType
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
 from wiswarm_zenoh.ros2.topic_source import parse_source_token
@@ -38,9 +38,9 @@ class Republisher:
             keys.all_sources, zenoh.handlers.Callback(self._on_token, indirect=False),
             history=True)
 
-    def topic(self, follower_token: str, source_topic: str) -> str:
+    def topic(self, follower: str, source_topic: str) -> str:
         """Where a follower's source topic is republished (a checked ROS name)."""
-        return check_topic(f"{self._namespace}/{follower_token}{source_topic}")
+        return check_topic(f"{self._namespace}/{ros_token(follower)}{source_topic}")
 
     def _on_token(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
@@ -58,7 +58,7 @@ class Republisher:
             log.info("follower %s serves ROS 2 topic %s (%s): republished as it came",
                      follower, topic, kind.name)
 
-    def publisher(self, follower: str, follower_token: str) -> Ros2Publisher | None:
+    def publisher(self, follower: str) -> Ros2Publisher | None:
         """The publisher of ``follower``'s source (made on first use, then kept)."""
         with self._lock:
             source = self._sources.get(follower)
@@ -67,7 +67,7 @@ class Republisher:
             found = self._publishers.get((follower, *source))
         if found is None:
             topic, kind = source
-            found = self._node.publisher_of(self.topic(follower_token, topic), kind)
+            found = self._node.publisher_of(self.topic(follower, topic), kind)
             with self._lock:
                 self._publishers[(follower, *source)] = found
         return found

@@ -1,11 +1,5 @@
-"""The router's access control for one swarm, as data (Zenoh 1.10's ``access_control``).
-
-Everything is denied unless a rule allows it. The router checks each message twice:
-``ingress`` when a node sends it in, ``egress`` when the router sends it on to a node,
-so receiving a message needs its own rule. A declaration (subscriber, queryable) is
-allowed only if its key expression lies inside an allowed one. Nodes are told apart by
-their certificate's common name, which only mutual TLS proves.
-"""
+"""The router's access control for one swarm, as data (see ``rules`` for how Zenoh 1.10
+applies it): who belongs, and what each role may send and receive."""
 
 from __future__ import annotations
 
@@ -15,21 +9,31 @@ from typing import Any
 from wiswarm_zenoh.ros2 import default_namespace
 from wiswarm_zenoh.ros2.bridge import NODE_NAME
 from wiswarm_zenoh.ros2.graph import ADMIN_SPACE, check_domain, check_namespace, mangle
+from wiswarm_zenoh.security.hierarchy import (
+    ROUTER,
+    check_site,
+    cloud_groups,
+    site_common_name,
+    site_groups,
+)
+from wiswarm_zenoh.security.rules import EGRESS, INGRESS, Group, Rule, rule, section
 from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_follower, check_name
 
-ROUTER = "router"
-INGRESS, EGRESS = "ingress", "egress"
+MAX_COMMON_NAME = 64  # characters: X.509's limit
 
 
 @dataclass(frozen=True)
 class Roster:
-    """Who belongs to the swarm, by certificate common name."""
+    """Who belongs to the swarm. A site's swarm (named after the site) has the cloud's
+    swarm as ``upstream``; a cloud's has its ``sites`` (and no followers of its own)."""
 
     swarm: str
     leader: str
     followers: tuple[str, ...]
     observers: tuple[str, ...] = ()
     ros2: tuple[int, str | None] | None = None  # the leader's ROS 2 domain and namespace
+    upstream: str | None = None
+    sites: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         SwarmKeys(self.swarm)
@@ -43,10 +47,31 @@ class Roster:
         for observer in self.observers:
             check_name(observer, "observer name")
         names = [ROUTER, self.leader, *self.followers, *self.observers]
-        twice = sorted({n for n in names if names.count(n) > 1})
-        if twice:
-            raise ValueError(f"node names must differ (router, leader, followers, observers): "
-                             f"{', '.join(twice)} given twice")
+        _once(names, "node names must differ (router, leader, followers, observers)")
+        self._check_links()
+        for name in names:
+            if len(self.common_name(name)) > MAX_COMMON_NAME:
+                raise ValueError(f"common name {self.common_name(name)!r} is over "
+                                 f"{MAX_COMMON_NAME} characters: use shorter names")
+
+    def _check_links(self) -> None:
+        if self.upstream is not None:
+            SwarmKeys(self.upstream)
+            check_site(self.swarm)
+            if self.upstream == self.swarm or self.sites:
+                raise ValueError(f"site {self.swarm!r} must have another swarm upstream "
+                                 "than its own, and no sites of its own")
+        for site in self.sites:
+            check_site(site)
+        _once([self.swarm, *self.sites], "site names must differ from each other and "
+              "from the cloud's swarm")
+        if self.sites and self.followers:
+            raise ValueError(f"swarm {self.swarm!r} has sites: its followers are theirs "
+                             "(add them to a site)")
+
+    def common_name(self, node: str) -> str:
+        """``node``'s certificate common name: its name, ``<site>/<name>`` in a site."""
+        return node if self.upstream is None else site_common_name(self.swarm, node)
 
     @property
     def nodes(self) -> tuple[str, ...]:
@@ -54,12 +79,13 @@ class Roster:
         return (self.leader, *self.followers, *self.observers)
 
 
-def _rule(rule_id: str, messages: list[str], flow: str, key_exprs: list[str]) -> dict[str, Any]:
-    return {"id": rule_id, "permission": "allow", "flows": [flow], "messages": messages,
-            "key_exprs": key_exprs}
+def _once(names: list[str], what: str) -> None:
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ValueError(f"{what}: {', '.join(twice)} given twice")
 
 
-def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[dict[str, Any]]:
+def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[Rule]:
     """What ``wiswarm leader --ros2`` sends and hears as a ROS 2 node (rmw_zenoh's keys):
     its topics' data (``<ns>/<follower>/<leaf>`` and ``/diagnostics``, any type), Paths
     on ``<ns>/<follower>/waypoints``, and its own node's liveliness tokens."""
@@ -68,76 +94,86 @@ def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[dict[str
     waypoints = [f"{domain}{ns}/*/waypoints/*/*"]
     tokens = [f"{ADMIN_SPACE}/{domain}/*/*/*/*/%/{mangle(ns)}/{NODE_NAME}/**"]
     return [
-        _rule("leader-ros2-publishes", ["put"], INGRESS, data),
-        _rule("leader-ros2-subscribes", ["declare_subscriber"], INGRESS, waypoints),
-        _rule("leader-ros2-hears-paths", ["put"], EGRESS, waypoints),
-        _rule("leader-ros2-tokens", ["liveliness_token"], INGRESS, tokens),
-        _rule("leader-ros2-sees-listeners", ["declare_subscriber"], EGRESS, data),
+        rule("leader-ros2-publishes", ["put"], INGRESS, data),
+        rule("leader-ros2-subscribes", ["declare_subscriber"], INGRESS, waypoints),
+        rule("leader-ros2-hears-paths", ["put"], EGRESS, waypoints),
+        rule("leader-ros2-tokens", ["liveliness_token"], INGRESS, tokens),
+        rule("leader-ros2-sees-listeners", ["declare_subscriber"], EGRESS, data),
     ]
+
+
+def _leader_rules(roster: Roster) -> list[Rule]:
+    keys = SwarmKeys(roster.swarm)
+    published = [keys.control, keys.all_stats, keys.leader_stats, keys.all_fresh,
+                 keys.leader_deliveries]
+    updates = f"{keys.prefix}/*/update"
+    rules = [
+        rule("leader-publishes", ["put"], INGRESS, published),
+        rule("leader-polls", ["query"], INGRESS, [updates]),
+        rule("leader-gets-replies", ["reply"], EGRESS, [updates]),
+        rule("leader-watches-members", ["declare_liveliness_subscriber", "liveliness_query"],
+             INGRESS, [keys.members, keys.leaders, keys.all_sources]),
+        # Any holder of the leader's certificate may run as a standby, under its own name.
+        rule("leader-token", ["liveliness_token"], INGRESS, [keys.leaders]),
+        # A standby follows the active leader's control and stats, to take over from them.
+        rule("leader-follows-leader", ["declare_subscriber"], INGRESS,
+             [keys.control, keys.all_stats, keys.leader_stats]),
+        rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_stats,
+                                                      keys.leader_stats]),
+        rule("leader-sees-tokens", ["liveliness_token"], EGRESS,
+             [keys.members, keys.leaders, keys.all_sources]),
+        # Who listens and who answers, so that its publishers' matching status and its
+        # queriers see the swarm.
+        rule("leader-sees-listeners", ["declare_subscriber", "declare_queryable"], EGRESS,
+             [*published, updates]),
+    ]
+    if roster.ros2 is not None:
+        rules += _ros2_rules(roster.swarm, *roster.ros2)
+    return rules
+
+
+def _follower_groups(roster: Roster) -> list[Group]:
+    keys = SwarmKeys(roster.swarm)
+    cn = roster.common_name
+    groups = [Group("followers", tuple(cn(f) for f in roster.followers), (
+        rule("followers-subscribe-control", ["declare_subscriber"], INGRESS, [keys.control]),
+        rule("followers-get-control", ["put"], EGRESS, [keys.control])))]
+    for follower in roster.followers:
+        own = f"follower-{follower}"
+        groups.append(Group(own, (cn(follower),), (
+            rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS,
+                 [keys.update(follower)]),
+            rule(f"{own}-is-polled", ["query"], EGRESS, [keys.update(follower)]),
+            rule(f"{own}-is-member", ["liveliness_token"], INGRESS,
+                 [keys.member(follower), f"{keys.source(follower)}/**"]),
+        )))
+    return groups
+
+
+def _observer_rules(swarm: str) -> tuple[Rule, ...]:
+    """Read-only: what the dashboard and ``wiswarm record`` show (stats, fresh updates,
+    deliveries, the tracking records, experiments' points, who leads and who is a
+    member), nothing sent."""
+    keys = SwarmKeys(swarm)
+    observed = [keys.all_stats, keys.leader_stats, keys.all_fresh, keys.leader_deliveries,
+                f"{keys.prefix}/*/tracking", f"{ROOT}/experiments/*/points"]
+    tokens = [keys.members, keys.leaders]
+    return (rule("observers-subscribe", ["declare_subscriber"], INGRESS, observed),
+            rule("observers-get-data", ["put"], EGRESS, observed),
+            rule("observers-watch-tokens", ["declare_liveliness_subscriber",
+                                            "liveliness_query"], INGRESS, tokens),
+            rule("observers-see-tokens", ["liveliness_token"], EGRESS, tokens))
 
 
 def access_control(roster: Roster) -> dict[str, Any]:
-    """The ``access_control`` section of the router's config for ``roster``."""
-    keys = SwarmKeys(roster.swarm)
-    p = keys.prefix
-    leader_stats, deliveries = keys.leader_stats, f"{p}/leader/deliveries"
-    leaders = keys.leaders
-    published = [keys.control, keys.all_stats, leader_stats, keys.all_fresh, deliveries]
-    watched = [keys.all_stats, leader_stats, keys.all_fresh]
-    updates = f"{p}/*/update"
-    leader_rules = [
-        _rule("leader-publishes", ["put"], INGRESS, published),
-        _rule("leader-polls", ["query"], INGRESS, [updates]),
-        _rule("leader-gets-replies", ["reply"], EGRESS, [updates]),
-        _rule("leader-watches-members", ["declare_liveliness_subscriber", "liveliness_query"],
-              INGRESS, [keys.members, leaders]),
-        # Any holder of the leader's certificate may run as a standby, under its own name.
-        _rule("leader-token", ["liveliness_token"], INGRESS, [leaders]),
-        # A standby follows the active leader's control and stats, to take over from them.
-        _rule("leader-follows-leader", ["declare_subscriber"], INGRESS,
-              [keys.control, keys.all_stats, leader_stats]),
-        _rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_stats,
-                                                       leader_stats]),
-        _rule("leader-sees-tokens", ["liveliness_token"], EGRESS, [keys.members, leaders]),
-        # Who listens and who answers, so that its publishers' matching status and its
-        # queriers see the swarm.
-        _rule("leader-sees-listeners", ["declare_subscriber", "declare_queryable"], EGRESS,
-              [*published, updates]),
-    ]
-    if roster.ros2 is not None:
-        leader_rules += _ros2_rules(roster.swarm, *roster.ros2)
-    follower_rules = [
-        _rule("followers-subscribe-control", ["declare_subscriber"], INGRESS, [keys.control]),
-        _rule("followers-get-control", ["put"], EGRESS, [keys.control]),
-    ]
-    # Read-only: what the dashboard and ``wiswarm record`` show (stats, fresh updates,
-    # deliveries, the tracking records, experiments' points, who leads and who is a
-    # member), nothing sent.
-    observed = [*watched, deliveries, f"{p}/*/tracking", f"{ROOT}/experiments/*/points"]
-    observer_rules = [_rule("observers-subscribe", ["declare_subscriber"], INGRESS, observed),
-                      _rule("observers-get-data", ["put"], EGRESS, observed),
-                      _rule("observers-watch-tokens", ["declare_liveliness_subscriber",
-                                                       "liveliness_query"], INGRESS,
-                            [keys.members, leaders]),
-                      _rule("observers-see-tokens", ["liveliness_token"], EGRESS,
-                            [keys.members, leaders])]
-    groups = [("leader", [roster.leader], leader_rules)]
-    if roster.followers:
-        groups.append(("followers", list(roster.followers), follower_rules))
-    for follower in roster.followers:
-        own = f"follower-{follower}"
-        groups.append((own, [follower], [
-            _rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS,
-                  [keys.update(follower)]),
-            _rule(f"{own}-is-polled", ["query"], EGRESS, [keys.update(follower)]),
-            _rule(f"{own}-is-member", ["liveliness_token"], INGRESS, [keys.member(follower)]),
-        ]))
-    if roster.observers:
-        groups.append(("observers", list(roster.observers), observer_rules))
-    # A subject list must not be empty: a group without members gets no subject at all.
-    rules = [rule for _, _, group in groups for rule in group]
-    subjects = [{"id": name, "cert_common_names": names} for name, names, _ in groups]
-    policies = [{"id": name, "subjects": [name], "rules": [r["id"] for r in group]}
-                for name, _, group in groups]
-    return {"enabled": True, "default_permission": "deny", "rules": rules,
-            "subjects": subjects, "policies": policies}
+    """The ``access_control`` section of the router's config for ``roster`` (a site's
+    router or a cloud's: with the rules that join them, see ``hierarchy``)."""
+    leader = roster.common_name(roster.leader)
+    groups = [Group("leader", (leader,), tuple(_leader_rules(roster))),
+              *_follower_groups(roster),
+              Group("observers", tuple(map(roster.common_name, roster.observers)),
+                    _observer_rules(roster.swarm)),
+              *cloud_groups(roster.swarm, roster.sites)]
+    if roster.upstream is not None:
+        groups += site_groups(roster.upstream, roster.swarm, leader)
+    return section(groups)

@@ -44,20 +44,24 @@ def _common(directory: Path, stem: str, listens: bool) -> dict[str, Any]:
     }
 
 
-def router_config(directory: Path, roster: Roster, listen: Sequence[str]) -> dict[str, Any]:
-    """The router: listens on TLS only, denies all that the swarm's rules do not allow."""
+def router_config(directory: Path, roster: Roster, listen: Sequence[str],
+                  dial: Sequence[str] = ()) -> dict[str, Any]:
+    """The router: listens on TLS only, denies all that the swarm's rules do not allow;
+    a site's router also dials the cloud's (``dial``)."""
     return {"mode": "router", "listen": {"endpoints": list(listen)},
+            **({"connect": {"endpoints": list(dial)}} if dial else {}),
             **_common(directory, "router", listens=True),
             "access_control": access_control(roster)}
 
 
-def node_config(directory: Path, name: str, connect: Sequence[str],
-                swarm: str) -> dict[str, Any]:
+def node_config(directory: Path, name: str, connect: Sequence[str], swarm: str,
+                upstream: str | None = None) -> dict[str, Any]:
     """A leader, follower or observer: a client of the router, with its own certificate.
-    Its metadata names the swarm its rules are for (``checks.check_swarm``)."""
+    Its metadata names the swarm its rules are for (``checks.check_swarm``) and, for an
+    edge leader, the cloud's swarm it serves (``checks.check_upstream``)."""
+    ours = {"swarm": swarm, "node": name, **({"upstream": upstream} if upstream else {})}
     return {"mode": "client", "connect": {"endpoints": list(connect)},
-            "metadata": {"wiswarm": {"swarm": swarm, "node": name}},
-            **_common(directory, name, listens=False)}
+            "metadata": {"wiswarm": ours}, **_common(directory, name, listens=False)}
 
 
 def endpoints(hosts: Sequence[str], port: int) -> list[str]:
