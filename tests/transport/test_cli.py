@@ -23,6 +23,7 @@ from .helpers import WAIT
 
 ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes; "
          "sys.exit(m.main(registrars=(nodes.register,)))")
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
 
 @pytest.fixture
@@ -154,8 +155,20 @@ def test_sigterm_stops_a_node_as_ctrl_c_does() -> None:
     assert "summary" in rest
 
 
+@pytest.mark.parametrize("spec, delay", [
+    (SessionSpec.loopback("router", 7447), "0"),  # nobody to scout: it opens at once
+    (SessionSpec("router", listen=("tcp/127.0.0.1:7447",)), "null"),  # multicast scouting
+    (SessionSpec.loopback("router", 7447, connect_ports=[7448]), "null"),  # a router to reach
+    (SessionSpec.loopback("peer", connect_ports=[7447]), "null"),
+    (SessionSpec(config_file=str(CONFIGS / "router.json5"), multicast_scouting=False,
+                 cfg=("scouting/delay:200",)), "200"),  # as the config says
+])
+def test_a_router_with_nobody_to_scout_skips_zenohs_scouting_delay(spec: SessionSpec,
+                                                                   delay: str) -> None:
+    assert spec.config().get_json("scouting/delay") == delay
+
+
 @pytest.mark.parametrize("mode", ["router", "peer", "client"])
 def test_the_shipped_zenoh_configs_load(mode: str) -> None:
-    path = Path(__file__).resolve().parents[2] / "configs" / f"{mode}.json5"
-    config = SessionSpec(config_file=str(path)).config()
+    config = SessionSpec(config_file=str(CONFIGS / f"{mode}.json5")).config()
     assert config.get_json("mode") == f'"{mode}"'
