@@ -1,0 +1,52 @@
+"""How the suite shares the machine when ``make test`` runs it on several workers
+(pytest-xdist, ``-n``): each test goes to whichever worker is free, except the units
+below, each run whole by one worker, one test after another:
+
+- the testbed (``tests/testbed``): network namespaces, shaped links and ns-3, one at a
+  time, as their rates and ages are measured;
+- a module whose fixture is built once for the module (a venv, a run of the demo):
+  split across workers, each would build it again.
+
+Run without ``-n``, none of this changes anything.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+TESTS = Path(__file__).parent
+UNITS = ("tests/testbed/", "tests/test_wheel.py", "tests/apps/test_tracking_e2e.py",
+         "tests/apps/test_demo_comparison.py")
+
+
+def unit(nodeid: str) -> str:
+    """The unit a test runs in: one of UNITS, else the test alone."""
+    return next((name for name in UNITS if nodeid.startswith(name)), nodeid)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
+    from xdist.scheduler import LoadScopeScheduling  # only ever called with xdist
+
+    class ByUnit(LoadScopeScheduling):  # type: ignore[misc]
+        """LoadScopeScheduling with ``unit`` for scopes (the largest units first)."""
+
+        def _split_scope(self, nodeid: str) -> str:
+            return unit(nodeid)
+
+    return ByUnit(config, log)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A module with a fixture of a wider scope than a test's must be one of UNITS."""
+    for item in items:
+        info = getattr(item, "_fixtureinfo", None)
+        shared = [name for name, defs in (info.name2fixturedefs.items() if info else ())
+                  for d in defs if d.scope != "function"
+                  and Path(d.func.__code__.co_filename).is_relative_to(TESTS)]
+        if shared and unit(item.nodeid) == item.nodeid:
+            raise pytest.UsageError(f"{item.nodeid}: its fixture {shared[0]} is built once "
+                                    "for many tests: add its module to UNITS in tests/conftest.py")
