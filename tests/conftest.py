@@ -8,10 +8,15 @@ below, each run whole by one worker, one test after another:
   split across workers, each would build it again.
 
 Run without ``-n``, none of this changes anything.
+
+A suite started in the background ignores Ctrl-C (SIGINT), and so would every program it
+starts: the tests that press Ctrl-C would wait on programs that cannot hear it. The
+suite takes it back at its start, so that what it starts has it as at a terminal.
 """
 
 from __future__ import annotations
 
+import signal
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +25,10 @@ import pytest
 TESTS = Path(__file__).parent
 UNITS = ("tests/testbed/", "tests/test_wheel.py", "tests/apps/test_tracking_e2e.py",
          "tests/apps/test_demo_comparison.py")
+
+
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def unit(nodeid: str) -> str:

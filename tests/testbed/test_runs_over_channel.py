@@ -163,9 +163,7 @@ def test_an_interrupted_study_writes_what_it_measured_and_removes_its_channels(
         [sys.executable, "-m", "wiswarm_zenoh.cli.main", "experiment", "testbed", "--ns", "2",
          "--baselines", "udp", "--duration", "30", "--warmup", "1", "--parallel", "1",
          "--out", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-        # Ctrl-C back for the child: a suite started in the background ignores SIGINT.
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     _wait_for_rows(out / "records" / "wiswarm-n2-b0.csv", rows=100)  # past the warm-up
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
     _, stderr = proc.communicate(timeout=60)

@@ -111,10 +111,7 @@ def test_ctrl_c_stops_the_demo_and_every_child(tmp_path: Path) -> None:
     demo = subprocess.Popen(
         [sys.executable, "-c", ENTRY, "swarm-demo", "--followers", "2", "--duration", "60",
          "--out", str(tmp_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        # Ctrl-C back for the child: a suite started in the background ignores SIGINT.
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         assert demo.stdout is not None
         for line in demo.stdout:  # the table is drawn once everyone is up
