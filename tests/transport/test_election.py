@@ -68,3 +68,35 @@ def test_an_older_leader_appearing_is_obeyed_at_once(
         token.undeclare()
     finally:
         election.close()
+
+
+def test_a_leader_that_comes_while_a_standby_asks_again_stays_active(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    """A standby asks now and then which leaders are there (``recheck``). After a router
+    restart everyone declares their token again: the answer can predate the active
+    leader's, which the watch sees come meanwhile. That leader is there all the same:
+    taking it for gone made the standby lead beside it for good."""
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    election = Election(sessions.node(port), keys, "standby", 2, changes.release)
+    other = sessions.node(port).liveliness()
+    tokens: list[zenoh.LivelinessToken] = []
+    asked = election._there
+
+    def asked_before_the_leader_came_back() -> set[tuple[int, str]]:
+        answer = asked()  # without it
+        tokens.append(other.declare_token(keys.leader("older", 1)))
+        eventually("the watch sees it come", lambda: election.active == (1, "older"))
+        return answer
+
+    try:
+        assert election.leading
+        election._there = asked_before_the_leader_came_back  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older") and not election.leading
+        del election._there  # asked as it is from now on: the token is in the answer
+        election.recheck()
+        assert election.active == (1, "older")
+    finally:
+        election.close()

@@ -62,6 +62,7 @@ class Election:
         # token that went before the watch began would never be seen to go, and this
         # leader would stand by for ever behind one that left).
         self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
+        self._came: set[Claim] | None = None  # tokens seen to come while recheck asks
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         there = self._there()
         with self._lock:
@@ -90,6 +91,8 @@ class Election:
                     self._went.discard(claim)
                 else:
                     self._went.add(claim)
+            if self._came is not None and sample.kind == zenoh.SampleKind.PUT:
+                self._came.add(claim)
             if sample.kind == zenoh.SampleKind.PUT:
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
@@ -129,10 +132,15 @@ class Election:
     def recheck(self) -> None:
         """Ask which leaders' tokens are there, and drop the claims whose token is not
         (a token's going that the watch never saw, as when it went while the watch's
-        history was on its way, must not keep a standby standing by for ever)."""
+        history was on its way, must not keep a standby standing by for ever). A token
+        the watch saw come while the answer was on its way is there, answer or not: a
+        restarted router's answer can predate the leaders declaring theirs again."""
+        with self._lock:
+            self._came = set()
         there = self._there()
         with self._lock:
-            stale = self._claims - there - {self.claim} - set(self._leaving)
+            came, self._came = self._came or set(), None
+            stale = self._claims - there - came - {self.claim} - set(self._leaving)
             if not stale:
                 return
             self._claims -= stale
