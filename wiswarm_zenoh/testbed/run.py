@@ -372,6 +372,7 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
         watch.sample()
         reasm1 = reassembly(channel.leader_ns)
         children.stop([group[0] for group in groups])  # the senders before their receiver
+        children.stop(["leader"])  # and it before its router: it would see the router go
     stopped = time.time() - started
     stopping = [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
                 if (code := children.exit_code(name)) != 0]
