@@ -4,8 +4,10 @@ below, each run whole by one worker, one test after another:
 
 - the testbed (``tests/testbed``): network namespaces, shaped links and ns-3, one at a
   time, as their rates and ages are measured;
-- a module whose fixture is built once for the module (a venv, a run of the demo):
-  split across workers, each would build it again.
+- a module with a fixture built once for many of its tests (a venv, a run of the demo):
+  split across workers, each would build it again. Such a module is found by its text
+  (``@pytest.fixture(scope="module")`` and the like); a shared fixture it takes from
+  elsewhere stops the run, naming it.
 
 Run without ``-n``, none of this changes anything.
 
@@ -16,6 +18,8 @@ suite takes it back at its start, so that what it starts has it as at a terminal
 
 from __future__ import annotations
 
+import functools
+import re
 import signal
 from pathlib import Path
 from typing import Any
@@ -23,8 +27,8 @@ from typing import Any
 import pytest
 
 TESTS = Path(__file__).parent
-UNITS = ("tests/testbed/", "tests/test_wheel.py", "tests/apps/test_tracking_e2e.py",
-         "tests/apps/test_demo_comparison.py")
+UNITS = ("tests/testbed/",)
+SHARED = re.compile(r"@pytest\.fixture\(\s*scope\s*=\s*[\"'](class|module|package|session)")
 
 
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
@@ -32,8 +36,17 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
 
 
 def unit(nodeid: str) -> str:
-    """The unit a test runs in: one of UNITS, else the test alone."""
-    return next((name for name in UNITS if nodeid.startswith(name)), nodeid)
+    """The unit a test runs in: one of UNITS, its module if that builds a fixture once,
+    else the test alone."""
+    module = nodeid.split("::")[0]
+    return next((name for name in UNITS if nodeid.startswith(name)),
+                module if _builds_once(module) else nodeid)
+
+
+@functools.cache
+def _builds_once(module: str) -> bool:
+    path = TESTS.parent / module
+    return path.is_file() and SHARED.search(path.read_text()) is not None
 
 
 @pytest.hookimpl(optionalhook=True)
@@ -50,7 +63,7 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
 
 
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """A module with a fixture of a wider scope than a test's must be one of UNITS."""
+    """A test taking a fixture of a wider scope than a test's must be in a unit."""
     for item in items:
         info = getattr(item, "_fixtureinfo", None)
         shared = [name for name, defs in (info.name2fixturedefs.items() if info else ())
@@ -58,4 +71,5 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
                   and Path(d.func.__code__.co_filename).is_relative_to(TESTS)]
         if shared and unit(item.nodeid) == item.nodeid:
             raise pytest.UsageError(f"{item.nodeid}: its fixture {shared[0]} is built once "
-                                    "for many tests: add its module to UNITS in tests/conftest.py")
+                                    "for many tests: add its module or folder to UNITS in "
+                                    "tests/conftest.py")
