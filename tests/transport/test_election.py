@@ -95,8 +95,43 @@ def test_a_leader_that_comes_while_a_standby_asks_again_stays_active(
         election._there = asked_before_the_leader_came_back  # type: ignore[method-assign]
         election.recheck()
         assert election.active == (1, "older") and not election.leading
-        del election._there  # asked as it is from now on: the token is in the answer
-        election.recheck()
+        election._there = lambda: {election.claim}  # type: ignore[method-assign]
+        election.recheck()  # one answer lacking it: the first, the one before had it
         assert election.active == (1, "older")
     finally:
         election.close()
+
+
+def test_a_leader_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    """One answer without the active leader's token leaves it active, as does one that
+    reached no router (without this leader's own token); two in a row (a token gone that
+    the watch never saw go) hand over."""
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    older = sessions.node(port).liveliness().declare_token(keys.leader("older", 1))
+    standby = sessions.node(port)
+    _token_known(standby, keys.leader("older", 1))
+    election = Election(standby, keys, "standby", 2, changes.release)
+    try:
+        assert election.active == (1, "older")
+        lacking = {election.claim}  # an answer with this leader's token only
+
+        election._there = set  # type: ignore[method-assign]  # reached no router
+        for _ in range(3):
+            election.recheck()
+        assert election.active == (1, "older")
+        election._there = lacking.copy  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older")
+        del election._there  # asked as it is: the token is there
+        election.recheck()
+        election._there = lacking.copy  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older")  # the answer between had it
+        election.recheck()
+        assert election.leading and changes.acquire(timeout=0)
+    finally:
+        election.close()
+        older.undeclare()

@@ -63,6 +63,7 @@ class Election:
         # leader would stand by for ever behind one that left).
         self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
         self._came: set[Claim] | None = None  # tokens seen to come while recheck asks
+        self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         there = self._there()
         with self._lock:
@@ -91,8 +92,10 @@ class Election:
                     self._went.discard(claim)
                 else:
                     self._went.add(claim)
-            if self._came is not None and sample.kind == zenoh.SampleKind.PUT:
-                self._came.add(claim)
+            if sample.kind == zenoh.SampleKind.PUT:
+                self._missed.discard(claim)
+                if self._came is not None:
+                    self._came.add(claim)
             if sample.kind == zenoh.SampleKind.PUT:
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
@@ -130,17 +133,24 @@ class Election:
         return claims
 
     def recheck(self) -> None:
-        """Ask which leaders' tokens are there, and drop the claims whose token is not
-        (a token's going that the watch never saw, as when it went while the watch's
-        history was on its way, must not keep a standby standing by for ever). A token
-        the watch saw come while the answer was on its way is there, answer or not: a
-        restarted router's answer can predate the leaders declaring theirs again."""
+        """Ask which leaders' tokens are there, and drop the claims whose token two
+        answers in a row lacked (a token's going that the watch never saw, as when it
+        went while the watch's history was on its way, must not keep a standby standing
+        by for ever). An answer without this leader's own token reached no router (it
+        was down, or had just come back): it says nothing. One answer is not enough
+        either (seen under load: a leader taken for gone is never seen to come again, and
+        the standby led beside it for good), and a token the watch saw come while the
+        answer was on its way is there, answer or not."""
         with self._lock:
             self._came = set()
         there = self._there()
         with self._lock:
+            if self.claim not in there:
+                self._came = None
+                return
             came, self._came = self._came or set(), None
-            stale = self._claims - there - came - {self.claim} - set(self._leaving)
+            lacked = self._claims - there - came - {self.claim} - set(self._leaving)
+            stale, self._missed = lacked & self._missed, lacked
             if not stale:
                 return
             self._claims -= stale
