@@ -146,7 +146,7 @@ class Election:
         there = self._there()
         with self._lock:
             if self.claim not in there:
-                self._came = None
+                self._came, self._missed = None, set()  # no answer: none in a row
                 return
             came, self._came = self._came or set(), None
             lacked = self._claims - there - came - {self.claim} - set(self._leaving)
