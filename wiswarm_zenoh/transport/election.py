@@ -96,7 +96,6 @@ class Election:
                 self._missed.discard(claim)
                 if self._came is not None:
                     self._came.add(claim)
-            if sample.kind == zenoh.SampleKind.PUT:
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
                     leaving.cancel()
