@@ -2,13 +2,17 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo docs lint bench clean compiled pure
+.PHONY: test compiled-test demo docs lint bench clean compiled pure
 
 # The core compiled by mypyc (setup.py, WISWARM_MYPYC=1): opt-in in place (`make
 # compiled`, undone by `make pure`); `make test` also runs the core's tests on a
 # compiled copy of the tree, so that both builds are held to the same tests.
 COMPILED_COPY := build/compiled
 CORE_SO := wiswarm_zenoh/core/*.so
+# pytest's workers (pytest-xdist): most tests wait on sessions, processes and links more
+# than they compute, so three share the two cores (tests/conftest.py says what runs
+# alone); WORKERS=0 runs the suite in this one process.
+WORKERS ?= 3
 
 $(STAMP): pyproject.toml
 	python3 -m venv $(VENV)
@@ -16,10 +20,19 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install -q -e '.[test]'
 	touch $(STAMP)
 
-test: $(STAMP) $(COMPILED_COPY)/.built
+# The compiled copy is built and its tests run beside mypy and the suite (its output in
+# build/compiled-test.log, its last lines shown at the end): the build is 40 s of one core.
+test: $(STAMP)
 	$(PY) -m ruff check wiswarm_zenoh apps tests benchmarks examples
-	$(PY) -m mypy --strict wiswarm_zenoh apps examples
-	$(PY) -m pytest
+	@mkdir -p build
+	@$(MAKE) --no-print-directory compiled-test >build/compiled-test.log 2>&1 & compiled=$$!; \
+	echo "$(MAKE) compiled-test >build/compiled-test.log (in the background)"; \
+	$(PY) -m mypy --strict wiswarm_zenoh apps examples && $(PY) -m pytest -n $(WORKERS); \
+	status=$$?; wait $$compiled || { tail -n 40 build/compiled-test.log; status=1; }; \
+	echo "the core compiled by mypyc (build/compiled-test.log):"; \
+	tail -n 1 build/compiled-test.log; exit $$status
+
+compiled-test: $(COMPILED_COPY)/.built
 	cd $(COMPILED_COPY) && WISWARM_CORE_BUILD=compiled $(abspath $(PY)) -m pytest -p no:cacheprovider tests/core
 
 $(COMPILED_COPY)/.built: $(STAMP) setup.py $(wildcard wiswarm_zenoh/core/*.py tests/core/*.py)

@@ -8,6 +8,7 @@ project's."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import sysconfig
@@ -22,9 +23,14 @@ ROOT = Path(__file__).resolve().parents[1]
 MOST_MB = 150  # the base install's site-packages (pip and setuptools included)
 
 
+# Without the developer's PYTHONPATH (a checkout's own path): the fresh venv sees only
+# what it installed, and its pip no wheel built in that checkout (its .egg-info).
+ENV = {name: value for name, value in os.environ.items() if name != "PYTHONPATH"}
+
+
 def run(*argv: str | Path, cwd: Path, code: int = 0) -> subprocess.CompletedProcess[str]:
     done = subprocess.run([str(a) for a in argv], capture_output=True, text=True, cwd=cwd,
-                          timeout=600, check=False)
+                          env=ENV, timeout=600, check=False)
     assert done.returncode == code, done.stderr[-2000:]
     return done
 

@@ -25,17 +25,39 @@ WAIT_S = 15.0
 MESSAGE_DATA = 1  # the binary opcode of a message on a subscribed channel
 
 
-def advertised(socket: ClientConnection, topics: tuple[str, ...]) -> dict[str, dict[str, Any]]:
-    """The channels advertised, by topic, until ``topics`` all are."""
-    channels: dict[str, dict[str, Any]] = {}
+def first_messages(socket: ClientConnection, topics: tuple[str, ...]
+                   ) -> dict[str, tuple[dict[str, Any], bytes, int]]:
+    """The first message of each of ``topics``: (its channel, its data, its log time).
+    As the protocol has it, channels come (advertise) and go (unadvertise), and a
+    subscription to one gone meanwhile is refused: each topic is subscribed on the
+    channel last advertised for it, again on a newer one, until a message of it came."""
+    channels: dict[str, dict[str, Any]] = {}  # the topic's channel last advertised
+    subscribed: dict[int, dict[str, Any]] = {}  # by subscription id
+    got: dict[str, tuple[dict[str, Any], bytes, int]] = {}
     deadline = time.monotonic() + WAIT_S
-    while not set(topics) <= set(channels):
+    while len(got) < len(topics):
         frame = socket.recv(timeout=max(0.0, deadline - time.monotonic()))
-        if isinstance(frame, str):
+        if isinstance(frame, bytes) and frame[0] == MESSAGE_DATA:
+            subscription, log_time = struct.unpack_from("<IQ", frame, 1)
+            channel = subscribed[subscription]
+            got.setdefault(channel["topic"], (channel, frame[13:], log_time))
+        elif isinstance(frame, str):
             message = json.loads(frame)
             if message["op"] == "advertise":
-                channels.update({channel["topic"]: channel for channel in message["channels"]})
-    return channels
+                channels.update({c["topic"]: c for c in message["channels"]
+                                 if c["topic"] in topics})
+            elif message["op"] == "unadvertise":
+                gone = set(message["channelIds"])
+                channels = {t: c for t, c in channels.items() if c["id"] not in gone}
+            fresh = [c for t, c in channels.items()
+                     if t not in got and c not in subscribed.values()]
+            if fresh:
+                first = len(subscribed) + 1
+                subscribed.update(enumerate(fresh, first))
+                socket.send(json.dumps({"op": "subscribe", "subscriptions": [
+                    {"id": index, "channelId": c["id"]}
+                    for index, c in enumerate(fresh, first)]}))
+    return got
 
 
 def test_a_websocket_client_subscribes_and_decodes(swarm: Swarm) -> None:
@@ -44,19 +66,8 @@ def test_a_websocket_client_subscribes_and_decodes(swarm: Swarm) -> None:
         assert recording.url is not None
         with connect(recording.url, subprotocols=["foxglove.sdk.v1"]) as socket:  # type: ignore[list-item]
             swarm.start()
-            channels = advertised(socket, WANTED)
-            by_subscription = {index: channels[topic] for index, topic in enumerate(WANTED, 1)}
-            socket.send(json.dumps({"op": "subscribe", "subscriptions": [
-                {"id": index, "channelId": channel["id"]}
-                for index, channel in by_subscription.items()]}))
-            got: dict[str, Any] = {}
-            deadline = time.monotonic() + WAIT_S
-            while len(got) < len(WANTED):
-                frame = socket.recv(timeout=max(0.0, deadline - time.monotonic()))
-                if isinstance(frame, bytes) and frame[0] == MESSAGE_DATA:
-                    subscription, log_time = struct.unpack_from("<IQ", frame, 1)
-                    channel = by_subscription[subscription]
-                    got.setdefault(channel["topic"], (decode(channel, frame[13:]), log_time))
+            got = {topic: (decode(channel, data), log_time)
+                   for topic, (channel, data, log_time) in first_messages(socket, WANTED).items()}
     finally:
         recording.close()
     image, _ = got[f"{ROOT}/uav0/image"]

@@ -1,34 +1,35 @@
 """The secured swarm delivers as the open one does: the real LeaderNode and FollowerNodes
-over the TLS router with access control, and over a plain TCP router."""
+over the TLS router with access control, and over a plain TCP router, each follower's
+frames whole and in order.
+
+What TLS and the access rules cost is a benchmark's (``benchmarks/bench_poll.py
+--secure``: 0.75 to 0.87 of an open swarm's polls, docs/measurements.md), not this
+test's: on this 2-core machine with other work beside it, the median mean AoI of five
+interleaved runs of each swarm came out from -36 % to +58 % of the other's, so a bound
+on that ratio would hold nothing but the machine's noise."""
 
 from __future__ import annotations
 
 import contextlib
-import statistics
-import threading
-import time
+import struct
 from collections.abc import Callable
 from pathlib import Path
 
-from wiswarm_zenoh.programs.frames import SyntheticFrames
+from tests.transport.helpers import Recorder
+from wiswarm_zenoh.programs.frames import FRAME_BYTES, SyntheticFrames
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SessionSpec
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 from .helpers import SWARM, WAIT, make_swarm
 
-N = 4
-FOLLOWERS = tuple(f"f{i}" for i in range(1, N + 1))
-RUN = 1.2  # seconds of polling per measurement (about 2000 polls)
-ROUNDS = 5
-# The secured configs keep shared memory off (traffic takes the link); so does the open
-# swarm here, or this would compare TLS with shared memory.
-NO_SHM = ("transport/shared_memory/enabled:false",)
+FOLLOWERS = ("f1", "f2", "f3", "f4")
+DELIVERIES = 20  # each follower's, in each swarm: 0.2 s of frames at 100 fps
 
 
-def _mean_aoi(specs: Callable[[str], SessionSpec]) -> float:
-    """The leader's mean AoI over all followers after RUN seconds of polling (the
+def _delivered(specs: Callable[[str], SessionSpec]) -> Recorder:
+    """What the leader reported once each follower delivered DELIVERIES frames (the
     router is up already)."""
-    joined = threading.Semaphore(0)
+    recorder = Recorder()
     with contextlib.ExitStack() as stack:
         for name in FOLLOWERS:
             node = stack.enter_context(FollowerNode(
@@ -36,19 +37,14 @@ def _mean_aoi(specs: Callable[[str], SessionSpec]) -> float:
             frames = SyntheticFrames(node.offer)
             frames.start()
             stack.callback(frames.stop)
-        leader = stack.enter_context(LeaderNode(
-            stack.enter_context(specs("leader").open()), SWARM, every_record=True,
-            on_join=lambda follower: joined.release()))
-        for _ in FOLLOWERS:
-            assert joined.acquire(timeout=WAIT), "a follower never joined"
-        time.sleep(RUN)  # the measurement itself, not a synchronisation
-        summary = leader.summary
-        assert sorted(summary.followers) == list(FOLLOWERS)
-        assert all(r.deliveries > 0 for r in leader.latest)
-        return summary.mean_aoi_s
+        stack.enter_context(LeaderNode(stack.enter_context(specs("leader").open()), SWARM,
+                                       **recorder.callbacks()))
+        recorder.wait(f"{DELIVERIES} deliveries of each follower", lambda r: all(
+            r.count(name) >= DELIVERIES for name in FOLLOWERS), WAIT)
+    return recorder
 
 
-def test_secured_swarm_delivers_with_the_aoi_of_the_open_one(tmp_path: Path) -> None:
+def test_a_secured_swarm_delivers_every_follower_as_the_open_one_does(tmp_path: Path) -> None:
     swarm = make_swarm(tmp_path / "swarm", free_tcp_port(), FOLLOWERS, ())
     open_port = free_tcp_port()
 
@@ -58,17 +54,16 @@ def test_secured_swarm_delivers_with_the_aoi_of_the_open_one(tmp_path: Path) -> 
     def plain(name: str) -> SessionSpec:
         if name == "router":
             return SessionSpec("router", listen=(f"tcp/127.0.0.1:{open_port}",),
-                               multicast_scouting=False, cfg=NO_SHM)
+                               multicast_scouting=False)
         return SessionSpec("client", connect=(f"tcp/127.0.0.1:{open_port}",),
-                           multicast_scouting=False, cfg=NO_SHM)
+                           multicast_scouting=False)
 
-    means: dict[str, list[float]] = {"secured": [], "open": []}
     with secured("router").open(), plain("router").open():
-        for _ in range(ROUNDS):  # interleaved: a busy moment of the machine hits both
-            means["secured"].append(_mean_aoi(secured))
-            means["open"].append(_mean_aoi(plain))
-    secure, plain_aoi = statistics.median(means["secured"]), statistics.median(means["open"])
-    print(f"mean AoI (ms): secured {[round(m * 1e3, 3) for m in means['secured']]}, "
-          f"open {[round(m * 1e3, 3) for m in means['open']]}; medians "
-          f"{secure * 1e3:.3f} vs {plain_aoi * 1e3:.3f} ({secure / plain_aoi - 1:+.1%})")
-    assert secure <= 1.10 * plain_aoi
+        for specs in (secured, plain):
+            recorder = _delivered(specs)
+            assert sorted(recorder.joins) == list(FOLLOWERS)
+            for name in FOLLOWERS:
+                frames = [d for d in recorder.deliveries if d.follower == name]
+                counters = [struct.unpack_from("<Q", d.payload)[0] for d in frames]
+                assert counters == sorted(set(counters))  # never an older frame after
+                assert all(len(d.payload) == FRAME_BYTES for d in frames)  # whole

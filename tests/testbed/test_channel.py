@@ -76,27 +76,34 @@ def _bulk(channel: Channel, *, downlink: bool = False) -> Bulk:
             while not stop.is_set():
                 client.sendall(payload)
 
+    def read() -> tuple[float, LinkCounters]:
+        """The tbf's counters, and when: the middle of their reading (tc takes a while,
+        long on a busy machine; the bytes it counts meanwhile are in the reading)."""
+        began = time.monotonic()
+        read = counters()
+        return (began + time.monotonic()) / 2, read
+
     before = counters()
     sender = threading.Thread(target=send)
     sender.start()
     received = 0
-    opened: tuple[float, int, LinkCounters] | None = None
-    closed: tuple[float, int, LinkCounters] | None = None
+    # (when received, payload received, when the counters were read, the counters)
+    opened: tuple[float, int, float, LinkCounters] | None = None
+    closed: tuple[float, int, float, LinkCounters] | None = None
     started = time.monotonic()
     with server, conn:
         while data := conn.recv(CHUNK):
             received += len(data)
             now = time.monotonic()
             if opened is None and now - started >= WARMUP:
-                opened = (now, received, counters())
+                opened = (now, received, *read())
             elif opened is not None and closed is None and now - opened[0] >= WINDOW:
-                closed = (now, received, counters())
+                closed = (now, received, *read())
                 stop.set()
     sender.join(WAIT)
     assert opened is not None and closed is not None
-    span = closed[0] - opened[0]
-    return Bulk(received, (closed[1] - opened[1]) * 8 / span,
-                (closed[2].sent_bytes - opened[2].sent_bytes) * 8 / span,
+    return Bulk(received, (closed[1] - opened[1]) * 8 / (closed[0] - opened[0]),
+                (closed[3].sent_bytes - opened[3].sent_bytes) * 8 / (closed[2] - opened[2]),
                 counters().sent_bytes - before.sent_bytes)
 
 

@@ -80,7 +80,8 @@ def test_each_way_is_late_by_the_delay_within_2_ms() -> None:
         plain_ways = _one_way(client, end, 40)
     with relayed(DELAY) as (relay, client, end):
         relayed_ways = _one_way(client, end, 30)
-        counters = relay.counters()
+    counters = relay.counters()  # stopped, its threads joined: each write is counted (a
+    # write is counted once sent, so the last echo can come back before it is)
     for way, plain, delayed in zip(("there", "back"), plain_ways, relayed_ways, strict=True):
         added = statistics.median(delayed) - statistics.median(plain)
         print(f"{way}: direct median {statistics.median(plain) * 1e6:.0f} us, relayed "

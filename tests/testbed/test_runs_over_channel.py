@@ -24,6 +24,8 @@ from wiswarm_zenoh.testbed import run as run_module
 from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure
 
+from .channel_helpers import left_behind
+
 pytestmark = pytest.mark.testbed
 RATE_MBPS = 20.0
 
@@ -161,9 +163,7 @@ def test_an_interrupted_study_writes_what_it_measured_and_removes_its_channels(
         [sys.executable, "-m", "wiswarm_zenoh.cli.main", "experiment", "testbed", "--ns", "2",
          "--baselines", "udp", "--duration", "30", "--warmup", "1", "--parallel", "1",
          "--out", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-        # Ctrl-C back for the child: a suite started in the background ignores SIGINT.
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     _wait_for_rows(out / "records" / "wiswarm-n2-b0.csv", rows=100)  # past the warm-up
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
     _, stderr = proc.communicate(timeout=60)
@@ -171,4 +171,4 @@ def test_an_interrupted_study_writes_what_it_measured_and_removes_its_channels(
     assert "Interrupted" in (out / "gains.md").read_text()
     rows = (out / "runs.csv").read_text().splitlines()
     assert len(rows) >= 2 and rows[1].startswith("wiswarm,2,")
-    assert set(list_channels()) == before
+    assert left_behind(before) == []

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
 import json
+import statistics
 import threading
 import time
 from collections.abc import Callable
@@ -94,15 +96,17 @@ class Samples:
             self.cond.notify_all()
 
     def rate(self, key: str) -> tuple[float, int]:
-        """Samples of ``key`` per second from its first to its last, and how many of
-        them were copies of another (the same payload twice: a second path)."""
+        """Samples of ``key`` per second, from the median time between two (one sample
+        held up on a busy machine makes one gap longer and the next shorter, and leaves
+        the median), and how many of them were copies of another (the same payload
+        twice: a second path)."""
         with self.cond:
             mine = [(t, s.payload.to_bytes()) for t, s in zip(self.arrivals, self.samples,
                                                                 strict=True)
                     if str(s.key_expr) == key]
-        span = mine[-1][0] - mine[0][0] if len(mine) > 1 else 0.0
-        return ((len(mine) - 1) / span if span > 0 else 0.0,
-                len(mine) - len({payload for _, payload in mine}))
+        gaps = [b[0] - a[0] for a, b in itertools.pairwise(mine)]
+        gap = statistics.median(gaps) if gaps else 0.0
+        return (1 / gap if gap > 0 else 0.0, len(mine) - len({payload for _, payload in mine}))
 
     def stats(self, key: str) -> list[dict[str, Any]]:
         with self.cond:

@@ -23,6 +23,7 @@ from .helpers import WAIT
 
 ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes; "
          "sys.exit(m.main(registrars=(nodes.register,)))")
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
 
 @pytest.fixture
@@ -110,10 +111,7 @@ def test_ctrl_c_stops_the_demo_and_every_child(tmp_path: Path) -> None:
     demo = subprocess.Popen(
         [sys.executable, "-c", ENTRY, "swarm-demo", "--followers", "2", "--duration", "60",
          "--out", str(tmp_path)],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        # Ctrl-C back for the child: a suite started in the background ignores SIGINT.
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     try:
         assert demo.stdout is not None
         for line in demo.stdout:  # the table is drawn once everyone is up
@@ -154,8 +152,20 @@ def test_sigterm_stops_a_node_as_ctrl_c_does() -> None:
     assert "summary" in rest
 
 
+@pytest.mark.parametrize("spec, delay", [
+    (SessionSpec.loopback("router", 7447), "0"),  # nobody to scout: it opens at once
+    (SessionSpec("router", listen=("tcp/127.0.0.1:7447",)), "null"),  # multicast scouting
+    (SessionSpec.loopback("router", 7447, connect_ports=[7448]), "null"),  # a router to reach
+    (SessionSpec.loopback("peer", connect_ports=[7447]), "null"),
+    (SessionSpec(config_file=str(CONFIGS / "router.json5"), multicast_scouting=False,
+                 cfg=("scouting/delay:200",)), "200"),  # as the config says
+])
+def test_a_router_with_nobody_to_scout_skips_zenohs_scouting_delay(spec: SessionSpec,
+                                                                   delay: str) -> None:
+    assert spec.config().get_json("scouting/delay") == delay
+
+
 @pytest.mark.parametrize("mode", ["router", "peer", "client"])
 def test_the_shipped_zenoh_configs_load(mode: str) -> None:
-    path = Path(__file__).resolve().parents[2] / "configs" / f"{mode}.json5"
-    config = SessionSpec(config_file=str(path)).config()
+    config = SessionSpec(config_file=str(CONFIGS / f"{mode}.json5")).config()
     assert config.get_json("mode") == f'"{mode}"'

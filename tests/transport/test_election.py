@@ -68,3 +68,69 @@ def test_an_older_leader_appearing_is_obeyed_at_once(
         token.undeclare()
     finally:
         election.close()
+
+
+def test_a_leader_that_comes_while_a_standby_asks_again_stays_active(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    """A standby asks now and then which leaders are there (``recheck``). After a router
+    restart everyone declares their token again: the answer can predate the active
+    leader's, which the watch sees come meanwhile. That leader is there all the same:
+    taking it for gone made the standby lead beside it for good."""
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    election = Election(sessions.node(port), keys, "standby", 2, changes.release)
+    other = sessions.node(port).liveliness()
+    tokens: list[zenoh.LivelinessToken] = []
+
+    def asked_before_the_leader_came_back() -> set[tuple[int, str]]:
+        answer = {election.claim}  # a router's answer without it: this leader's only
+        tokens.append(other.declare_token(keys.leader("older", 1)))
+        eventually("the watch sees it come", lambda: election.active == (1, "older"))
+        return answer
+
+    try:
+        assert election.leading
+        election._there = asked_before_the_leader_came_back  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older") and not election.leading
+        election._there = lambda: {election.claim}  # type: ignore[method-assign]
+        election.recheck()  # one answer lacking it: the first, the one before had it
+        assert election.active == (1, "older")
+    finally:
+        election.close()
+
+
+def test_a_leader_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    """One answer without the active leader's token leaves it active, as does one that
+    reached no router (without this leader's own token); two in a row (a token gone that
+    the watch never saw go) hand over."""
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    older = sessions.node(port).liveliness().declare_token(keys.leader("older", 1))
+    standby = sessions.node(port)
+    _token_known(standby, keys.leader("older", 1))
+    election = Election(standby, keys, "standby", 2, changes.release)
+    try:
+        assert election.active == (1, "older")
+        lacking = {election.claim}  # an answer with this leader's token only
+
+        election._there = lacking.copy  # type: ignore[method-assign]
+        election.recheck()
+        election._there = set  # type: ignore[method-assign]  # reached no router:
+        election.recheck()  # no answer, so the next lacking one is the first again
+        election._there = lacking.copy  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older")
+        election._there = lambda: {election.claim, (1, "older")}  # type: ignore[method-assign]
+        election.recheck()
+        election._there = lacking.copy  # type: ignore[method-assign]
+        election.recheck()
+        assert election.active == (1, "older")  # the answer between had it
+        election.recheck()
+        assert election.leading and changes.acquire(timeout=0)
+    finally:
+        election.close()
+        older.undeclare()

@@ -64,9 +64,11 @@ def test_a_member_that_never_answers_barely_slows_the_others(
             rogue_polls = sum(s.polls for s in leader.latest if s.follower.startswith("ghost"))
         before = _delivered(recorder, start, joined) / (joined - start)
         during = _delivered(recorder, joined, end) / (end - joined)
-    # Well above the 2 to 5 % before the fix, with room for a busy machine (a rate over
-    # 1.5 s); bench_faults.py --cases rogue measures the targets (>= 0.95).
-    assert during >= 0.3 * before, f"{kind}: {during:.0f}/s against {before:.0f}/s before"
+    # Three times the 2 to 5 % before the fix: that still fails it, and leaves the rest to
+    # a busy machine, whose other work can come and go between the two windows of 1.5 s
+    # (a worker of the suite starting a heavy test takes half a core);
+    # bench_faults.py --cases rogue measures the targets (>= 0.95).
+    assert during >= 0.15 * before, f"{kind}: {during:.0f}/s against {before:.0f}/s before"
     # one poll, then probes 0.5, 1.5 s later: a handful at most, for each name
     names = sum(j.startswith("ghost") for j in recorder.joins)
     assert rogue_polls <= 3 * names

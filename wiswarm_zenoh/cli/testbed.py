@@ -28,8 +28,10 @@ from wiswarm_zenoh.testbed import (
     list_channels,
     remove_channel,
 )
+from wiswarm_zenoh.testbed.channel import STATE_DIR
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
 from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
+from wiswarm_zenoh.testbed.ownership import locked
 from wiswarm_zenoh.testbed.wifi import WifiMedium, list_media, remove_medium
 from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec
 from wiswarm_zenoh.units import format_rate
@@ -143,16 +145,17 @@ def _status(args: argparse.Namespace) -> int:
         print(_medium_counters(medium.stats()))
         shown += 1
     for run_id in list_channels():
-        try:
-            channel = Channel.attach(run_id)
-        except LookupError:
-            continue  # removed meanwhile
-        spec = channel.spec
-        if shown:
-            print()
-        print(channel.describe())
-        print(_counters("uplink", spec.rate_bps, channel.uplink()))
-        print(_counters("downlink", spec.down_bps, channel.downlink()))
+        with locked(STATE_DIR):  # a channel is removed under this lock: none half-gone here
+            try:
+                channel = Channel.attach(run_id)
+            except LookupError:
+                continue  # removed meanwhile
+            spec = channel.spec
+            if shown:
+                print()
+            print(channel.describe())
+            print(_counters("uplink", spec.rate_bps, channel.uplink()))
+            print(_counters("downlink", spec.down_bps, channel.downlink()))
         shown += 1
     if not shown:
         print("no testbed channels (make one with `wiswarm testbed up`)")

@@ -48,6 +48,7 @@ from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.nodes import Placement
 from wiswarm_zenoh.testbed.reassembly import reassembly
+from wiswarm_zenoh.testbed.spec import LinkCounters
 from wiswarm_zenoh.testbed.wifi import WifiMedium
 from wiswarm_zenoh.testbed.wifi_spec import window_counters
 from wiswarm_zenoh.units import format_rate
@@ -284,26 +285,35 @@ class _MediumWatch:
 
 
 class _LinkWatch:
-    """The tbf channel's counters over the window, and its rate (noting changes)."""
+    """The tbf channel's counters over the window, and its rate (noting changes). Rates
+    are over the time between the two readings of the counters, not the window's: on a
+    busy machine a reading comes late, and its bytes with it."""
 
     def __init__(self, channel: Channel, started: float, events: list[str]) -> None:
         self._channel = channel
         self._watch = _Watch(channel, started, events)
-        self._first = (channel.uplink(), channel.downlink())
+        self._first = self._read()
         self._last = self._first
 
+    def _read(self) -> tuple[float, LinkCounters, LinkCounters]:
+        """(when, uplink, downlink), when the middle of the two reads."""
+        before = time.monotonic()
+        up, down = self._channel.uplink(), self._channel.downlink()
+        return (before + time.monotonic()) / 2, up, down
+
     def open(self) -> None:
-        self._first = (self._channel.uplink(), self._channel.downlink())
+        self._first = self._read()
 
     def sample(self) -> None:
         self._watch.sample()
-        self._last = (self._channel.uplink(), self._channel.downlink())
+        self._last = self._read()
 
     def counters(self, span: float) -> dict[str, float]:
-        (up0, down0), (up1, down1) = self._first, self._last
+        """``span`` aside (the medium's watch takes it): the readings say their own."""
+        (t0, up0, down0), (t1, up1, down1) = self._first, self._last
 
         def per_s(before: int, after: int) -> float:
-            return (after - before) / span if span > 0 else 0.0
+            return (after - before) / (t1 - t0) if t1 > t0 else 0.0
 
         backlog = self._watch.backlog
         return {
@@ -362,6 +372,7 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
         watch.sample()
         reasm1 = reassembly(channel.leader_ns)
         children.stop([group[0] for group in groups])  # the senders before their receiver
+        children.stop(["leader"])  # and it before its router: it would see the router go
     stopped = time.time() - started
     stopping = [f"t={stopped:.1f}s, stopping: {ending(name, code)}" for name in names
                 if (code := children.exit_code(name)) != 0]

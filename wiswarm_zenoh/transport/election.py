@@ -62,6 +62,8 @@ class Election:
         # token that went before the watch began would never be seen to go, and this
         # leader would stand by for ever behind one that left).
         self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
+        self._came: set[Claim] | None = None  # tokens seen to come while recheck asks
+        self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         there = self._there()
         with self._lock:
@@ -91,6 +93,9 @@ class Election:
                 else:
                     self._went.add(claim)
             if sample.kind == zenoh.SampleKind.PUT:
+                self._missed.discard(claim)
+                if self._came is not None:
+                    self._came.add(claim)
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
                     leaving.cancel()
@@ -127,12 +132,24 @@ class Election:
         return claims
 
     def recheck(self) -> None:
-        """Ask which leaders' tokens are there, and drop the claims whose token is not
-        (a token's going that the watch never saw, as when it went while the watch's
-        history was on its way, must not keep a standby standing by for ever)."""
+        """Ask which leaders' tokens are there, and drop the claims whose token two
+        answers in a row lacked (a token's going that the watch never saw, as when it
+        went while the watch's history was on its way, must not keep a standby standing
+        by for ever). An answer without this leader's own token reached no router (it
+        was down, or had just come back): it says nothing. One answer is not enough
+        either (seen under load: a leader taken for gone is never seen to come again, and
+        the standby led beside it for good), and a token the watch saw come while the
+        answer was on its way is there, answer or not."""
+        with self._lock:
+            self._came = set()
         there = self._there()
         with self._lock:
-            stale = self._claims - there - {self.claim} - set(self._leaving)
+            if self.claim not in there:
+                self._came, self._missed = None, set()  # no answer: none in a row
+                return
+            came, self._came = self._came or set(), None
+            lacked = self._claims - there - came - {self.claim} - set(self._leaving)
+            stale, self._missed = lacked & self._missed, lacked
             if not stale:
                 return
             self._claims -= stale

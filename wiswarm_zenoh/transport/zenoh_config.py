@@ -241,8 +241,21 @@ def build_config(
         except ValueError as exc:
             raise UsageError(str(exc)) from None
         _insert(config, key, value, f"--cfg {key}")
+    _open_at_once_with_nobody_to_scout(config)
     check_tls(config)  # a bad certificate named here, not as a TLS error at open
     return config
+
+
+def _open_at_once_with_nobody_to_scout(config: zenoh.Config) -> None:
+    """A router that scouts nobody by multicast and connects to nobody has nothing to
+    wait for at open, yet Zenoh waits its scouting delay (500 ms) there: no delay then,
+    unless the config sets one."""
+    endpoints = json.loads(config.get_json("connect/endpoints"))
+    if (config.get_json("mode") == '"router"'
+            and config.get_json("scouting/multicast/enabled") == "false"
+            and config.get_json("scouting/delay") == "null"
+            and not any(endpoints.values() if isinstance(endpoints, dict) else endpoints)):
+        _insert(config, "scouting/delay", "0", "scouting delay")
 
 
 def free_tcp_port() -> int:
