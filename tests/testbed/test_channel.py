@@ -22,7 +22,6 @@ import pytest
 from wiswarm_zenoh.testbed import (
     Channel,
     ChannelSpec,
-    LinkCounters,
     cleanup_leftovers,
     enter,
     list_channels,
@@ -51,7 +50,6 @@ def _in_ns(ns: str, make: Callable[[], T]) -> T:
 class Bulk:
     received: int  # payload bytes over the whole transfer
     goodput_bps: float  # payload bits/s over the window
-    wire_bps: float  # bits/s the tbf sent over the window (headers included)
     sent_counted: int  # growth of the tbf's Sent counter over the whole transfer
 
 
@@ -76,44 +74,39 @@ def _bulk(channel: Channel, *, downlink: bool = False) -> Bulk:
             while not stop.is_set():
                 client.sendall(payload)
 
-    def read() -> tuple[float, LinkCounters]:
-        """The tbf's counters, and when: the middle of their reading (tc takes a while,
-        long on a busy machine; the bytes it counts meanwhile are in the reading)."""
-        began = time.monotonic()
-        read = counters()
-        return (began + time.monotonic()) / 2, read
-
     before = counters()
     sender = threading.Thread(target=send)
     sender.start()
     received = 0
-    # (when received, payload received, when the counters were read, the counters)
-    opened: tuple[float, int, float, LinkCounters] | None = None
-    closed: tuple[float, int, float, LinkCounters] | None = None
+    # (when received, payload received)
+    opened: tuple[float, int] | None = None
+    closed: tuple[float, int] | None = None
     started = time.monotonic()
     with server, conn:
         while data := conn.recv(CHUNK):
             received += len(data)
             now = time.monotonic()
             if opened is None and now - started >= WARMUP:
-                opened = (now, received, *read())
+                opened = (now, received)
             elif opened is not None and closed is None and now - opened[0] >= WINDOW:
-                closed = (now, received, *read())
+                closed = (now, received)
                 stop.set()
     sender.join(WAIT)
     assert opened is not None and closed is not None
     return Bulk(received, (closed[1] - opened[1]) * 8 / (closed[0] - opened[0]),
-                (closed[3].sent_bytes - opened[3].sent_bytes) * 8 / (closed[2] - opened[2]),
                 counters().sent_bytes - before.sent_bytes)
 
 
 def _assert_rate(bulk: Bulk, rate_bps: int) -> None:
     print(f"rate {rate_bps / 1e6:g} Mbit/s: goodput {bulk.goodput_bps / 1e6:.2f} Mbit/s "
-          f"({bulk.goodput_bps / rate_bps - 1:+.1%}), on the wire {bulk.wire_bps / 1e6:.2f} "
-          f"Mbit/s ({bulk.wire_bps / rate_bps - 1:+.1%})")
+          f"({bulk.goodput_bps / rate_bps - 1:+.1%}), the tbf sent "
+          f"{bulk.sent_counted / bulk.received:.3f} x the payload")
     assert 0.9 * rate_bps <= bulk.goodput_bps <= 1.1 * rate_bps
-    assert 0.95 * rate_bps <= bulk.wire_bps <= 1.05 * rate_bps
-    assert bulk.sent_counted >= bulk.received  # every payload byte crossed the tbf
+    # What the tbf sent, to the payload received, over the whole transfer: every payload
+    # byte crossed it, with TCP/IP's headers (some 4.5 %) and few retransmissions. Bytes,
+    # not a rate over the window: reading tc's counters takes a while on a busy machine,
+    # and a loaded run measured the wire 33 % under the goodput that way.
+    assert bulk.received <= bulk.sent_counted <= 1.15 * bulk.received
 
 
 def _netns_names() -> str:
