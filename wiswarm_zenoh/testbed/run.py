@@ -296,10 +296,12 @@ class _LinkWatch:
         self._last = self._first
 
     def _read(self) -> tuple[float, LinkCounters, LinkCounters]:
-        """(when, uplink, downlink), when the middle of the two reads."""
-        before = time.monotonic()
-        up, down = self._channel.uplink(), self._channel.downlink()
-        return (before + time.monotonic()) / 2, up, down
+        """(when, uplink, downlink): when between the two reads' returns (tc reads the
+        counters once started; starting it is what takes long on a busy machine)."""
+        up = self._channel.uplink()
+        after_up = time.monotonic()
+        down = self._channel.downlink()
+        return (after_up + time.monotonic()) / 2, up, down
 
     def open(self) -> None:
         self._first = self._read()
