@@ -37,6 +37,7 @@ log = logging.getLogger(__name__)
 
 Claim = tuple[int, str]  # (start in microseconds, name): the smallest leads
 ASK_TIMEOUT = 2.0  # seconds: the routers answer at once; this bounds a start with none
+START_ASKS = 3  # at the start, answers that lack this leader's own token: asked again
 TAKEOVER_GRACE = 0.25  # seconds the active leader's token must stay away to count as gone
 
 
@@ -66,6 +67,10 @@ class Election:
         self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         there = self._there()
+        for _ in range(START_ASKS - 1):  # without our own token, the answer reached no
+            if self.claim in there:      # router (as in ``recheck``): ask again
+                break
+            there = self._there()
         with self._lock:
             self._claims |= there - self._went
             self._went = None
