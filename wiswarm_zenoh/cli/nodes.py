@@ -34,17 +34,17 @@ from wiswarm_zenoh.core import POLICIES, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.extras import require
 from wiswarm_zenoh.options import (
     IN_FLIGHT,
-    ArgType,
     UsageError,
     add_ros2_arguments,
+    add_source_arguments,
     add_zenoh_arguments,
     finite_float,
     host_port,
-    integer,
     node_name,
     positive_float,
     positive_int,
     ros2_options,
+    source_of,
     writable_dir,
     writable_file,
 )
@@ -59,10 +59,7 @@ from wiswarm_zenoh.programs.runners import (
     run_router,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
-from wiswarm_zenoh.ros2.graph import MAX_DOMAIN, check_topic
-from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.security.checks import check_identity, check_swarm, check_upstream
-from wiswarm_zenoh.transport.source_feed import ZenohSource
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
     MODES,
@@ -236,7 +233,7 @@ def _follower(args: argparse.Namespace) -> int:
     config = _checked(FollowerConfig, **_given(args, "queue", "capacity", "fragment_size"),
                       rate_hz=rate if args.queue == "fifo" else None)
     _check_frame_bytes(args.frame_bytes, config)
-    source = _follower_source(args)
+    source = source_of(args)
     if args.ros2_waypoints is not None:
         require("ros2")  # the Path is made and serialized here
     options = FollowerOptions(args.swarm, args.id, config, args.frame_bytes, rate,
@@ -247,26 +244,6 @@ def _follower(args: argparse.Namespace) -> int:
     run_follower(spec, options, threading.Event(), _Announce(
         f"wiswarm follower {args.id}: {what}, {config.queue} queue (Ctrl-C to stop)"))
     return 0
-
-
-def _key_expr(text: str) -> str:
-    return ZenohSource(text).key_expr  # ValueError saying why not
-
-
-def _follower_source(args: argparse.Namespace) -> ZenohSource | Ros2TopicSource | None:
-    """What the follower serves: --source, --ros2-topic, or synthetic frames (None)."""
-    if args.source is not None and args.ros2_topic is not None:
-        raise UsageError("give --source or --ros2-topic, not both")
-    if args.ros_domain is not None and args.ros2_topic is None and args.ros2_waypoints is None:
-        raise UsageError("--ros-domain is for --ros2-topic or --ros2-waypoints: add one")
-    if (args.source or args.ros2_topic) and args.rate is not None and args.queue != "fifo":
-        raise UsageError("--rate paces synthetic frames (or a fifo queue's rate control): "
-                         "a source comes at its own rate")
-    if args.source is not None:
-        return ZenohSource(args.source)
-    if args.ros2_topic is not None:
-        return Ros2TopicSource(args.ros2_topic, args.ros_domain or 0)
-    return None
 
 
 def _check_frame_bytes(frame_bytes: int, config: FollowerConfig) -> None:
@@ -378,24 +355,7 @@ def register(subparsers: Any) -> None:
     follower.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,
                           help=f"bytes per synthetic frame (default {FRAME_BYTES} = 224x224; "
                           "udp: what fits one datagram)")
-    follower.add_argument("--source", metavar="KEYEXPR", type=ArgType("key expression",
-                                                                      _key_expr),
-                          help="wiswarm: serve the samples published on this Zenoh key "
-                          "expression instead of synthetic frames (each stamped with its "
-                          "Zenoh timestamp, else its arrival)")
-    follower.add_argument("--ros2-topic", metavar="TOPIC", type=ArgType("ROS topic",
-                                                                        check_topic),
-                          help="wiswarm: serve this ROS 2 topic as rmw_zenoh publishes it "
-                          "(any type, found from its publisher; CDR bytes as they came, "
-                          "stamped with their source time); a --ros2 leader republishes it "
-                          "as <ns>/<follower>/<topic>")
-    follower.add_argument("--ros2-waypoints", metavar="TOPIC", type=ArgType("ROS topic",
-                                                                            check_topic),
-                          help="wiswarm: publish this follower's waypoints as a "
-                          "nav_msgs/msg/Path on TOPIC of the robot's ROS 2 (the ros2 extra)")
-    follower.add_argument("--ros-domain", type=integer(0, MAX_DOMAIN), metavar="D",
-                          help="the ROS domain of --ros2-topic and --ros2-waypoints "
-                          "(ROS_DOMAIN_ID; default 0)")
+    add_source_arguments(follower)
     _add_common(follower, ("peer", "client"))
     follower.set_defaults(func=_follower)
 

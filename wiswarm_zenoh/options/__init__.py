@@ -30,6 +30,7 @@ from wiswarm_zenoh.options.arguments import (
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
 from wiswarm_zenoh.options.ros2 import UPDATE_ADAPTER, add_ros2_arguments, ros2_options
+from wiswarm_zenoh.options.sources import add_source_arguments, source_of
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
@@ -66,6 +67,7 @@ __all__ = [
     "add_rate_grid",
     "add_rates",
     "add_ros2_arguments",
+    "add_source_arguments",
     "add_wifi_arguments",
     "add_zenoh_arguments",
     "channel_spec",
@@ -84,6 +86,7 @@ __all__ = [
     "require_testbed",
     "ros2_options",
     "show_written",
+    "source_of",
     "wifi_of",
     "wifi_spec",
     "writable_dir",
