@@ -94,3 +94,25 @@ def test_reliability_after_foretells_record(window: int, prior: float, outcomes:
     assert estimator.value == before  # only foretold
     estimator.record(last)
     assert estimator.value == pytest.approx(foretold)
+
+
+def test_an_outage_forgotten_leaves_the_link_s_record_before_it() -> None:
+    r = ReliabilityEstimator(window=4, prior=1.0)
+    for answered in (True, False, True, False, False):
+        r.record(answered)
+    assert r.value == 0.25  # the window holds F T F F
+    r.forget_outage()  # the two misses since the last answer: the process was gone
+    assert r.value == pytest.approx((1 + 2 * 1.0) / 4)  # F T kept, two polls at the prior
+    r.record(False)
+    assert r.value == pytest.approx((1 + 1 * 1.0) / 4)  # F T F
+
+
+def test_an_outage_forgotten_gives_one_that_never_answered_a_newcomer_s_prior() -> None:
+    r = ReliabilityEstimator(window=4, prior=0.5)
+    r.record(False)
+    r.record(False)
+    assert r.value == 0.0
+    r.forget_outage()
+    assert r.value == 0.5
+    r.record(True)
+    assert r.value == pytest.approx((1 + 0.5 * 3) / 4)

@@ -173,3 +173,27 @@ def test_a_probe_answered_brings_the_follower_back_into_the_schedule() -> None:
     answer(leader, followers, request, t)
     assert leader.stats("dead", t + 0.01).p_hat == 0.5
     assert leader.stats("dead", t + 0.01).deliveries == 2  # its last words, and now
+
+
+def test_a_dead_follower_that_rejoins_is_polled_at_once_with_the_p_it_had() -> None:
+    """Its probes had backed off to ``probe_max`` while its process was dead; its token's
+    return (a new process) says it is up: it is polled on its index at once, and the
+    polls it missed while gone do not count against its link."""
+    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=8.0,
+                          adaptive_timeout=False)
+    leader, followers, t = _answered_once(config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 20.0, start=t)
+    assert leader.stats("dead", t).p_hat == 0.0
+    assert dead_polls[-1] - dead_polls[-2] == pytest.approx(8.0 + 0.1)  # backed off fully
+    leader.remove_follower("dead", t)  # its token went
+    followers["dead"] = Follower("dead")  # started again
+    leader.add_follower("dead", t + 0.2)
+    assert leader.stats("dead", t + 0.2).p_hat == 1.0  # one answer, no miss of its link
+    t = rejoined = t + 0.2
+    while (request := poll(leader, t)).follower != "dead":
+        followers["a"].offer(b"x", t)
+        answer(leader, followers, request, t)
+        t += 0.002
+    assert t <= rejoined + 0.002  # at once (its age is the larger), not up to 8 s on
+    followers["dead"].offer(b"back", t)
+    assert any(isinstance(e, Delivered) for e in answer(leader, followers, request, t))

@@ -40,6 +40,17 @@ class ReliabilityEstimator:
         self._outcomes.append(answered)
         self._answered += answered
 
+    def forget_outage(self) -> None:
+        """Drop the polls that went unanswered since the last answer: the follower's
+        process was gone (it rejoined with a new one), so they measured its absence, not
+        its link. One that never answered gets a newcomer's prior back."""
+        while self._outcomes and not self._outcomes[-1]:
+            self._outcomes.pop()
+        if not self.ever_answered:
+            self.prior = self._prior_given
+        missing = self.window - len(self._outcomes)
+        self.value = (self._answered + self.prior * missing) / self.window
+
     def after(self, answered: bool) -> float:
         """What ``value`` would be with one more poll recorded (nothing changes)."""
         full = len(self._outcomes) == self.window

@@ -120,7 +120,9 @@ class Leader:
         """A follower joined, or rejoined after a restart (its transfer state is reset;
         a reply it gave before is taken first, as things were then). One that left and
         comes back is taken up where it was: its age is what its last delivery makes it,
-        not a fresh start. Followers given one ``link`` (a site) share its p."""
+        not a fresh start; the polls it missed while gone leave its p, and it is polled
+        as soon as its index says, not when a probe's back-off ends. Followers given one
+        ``link`` (a site) share its p."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._pick = None

@@ -159,7 +159,12 @@ class Peer:
         self._changed()
 
     def restart(self) -> None:
-        """The follower came back (new process): forget its transfer state and clock."""
+        """The follower came back (new process): forget its transfer state and clock, and
+        the polls it missed while it was gone; it is no longer silent, or is probed at
+        once (its token's return says it is up: a back-off grown while it was dead would
+        leave it unpolled for up to ``probe_max``)."""
+        self.reliability.forget_outage()
+        self.probe_gap, self.probe_at = 0.0, -math.inf
         self.reassembler.reset()
         self.clock.reset()
         self.timing.reset()
