@@ -22,7 +22,7 @@ from wiswarm_zenoh.programs.runners import ReadySignal, StopSignal
 from wiswarm_zenoh.testbed import Channel, ChannelSpec, list_channels
 from wiswarm_zenoh.testbed import run as run_module
 from wiswarm_zenoh.testbed.nodes import Placement
-from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure
+from wiswarm_zenoh.testbed.run import Group, RunOutcome, RunSpec, measure, read_record
 
 from .channel_helpers import left_behind
 
@@ -70,36 +70,46 @@ def test_push_frames_cross_the_shaped_link(tmp_path: Path) -> None:
     _frames_crossed(outcome)
 
 
-def _kill_child_later(name: str, after: float) -> threading.Thread:
-    def kill() -> None:
-        deadline = time.monotonic() + 30.0
-        while time.monotonic() < deadline:
-            found = [p for p in multiprocessing.active_children() if p.name == name]
-            if found and found[0].pid is not None:
-                time.sleep(after)  # into the run: the window must show the gap
-                os.kill(found[0].pid, signal.SIGKILL)
-                return
-            time.sleep(0.05)
-    thread = threading.Thread(target=kill, daemon=True)
-    thread.start()
-    return thread
+class _Faults:
+    """Kills the followers' process, then lowers the channel's rate, at times into the
+    run (its ``on_tick``: from when its nodes were ready, however long they took to
+    start on a busy machine), and keeps when the kill was."""
+
+    def __init__(self, channel: Channel, spec: RunSpec, kill_at: float, rate_at: float) -> None:
+        self._channel, self._span = channel, spec.warmup + spec.duration
+        self._kill_at, self._rate_at = kill_at, rate_at
+        self.killed_at: float | None = None  # wall clock, as the record's stamps
+        self._rate_set = False
+
+    def __call__(self, fraction: float) -> None:
+        elapsed = fraction * self._span
+        if self.killed_at is None and elapsed >= self._kill_at:
+            followers = [p for p in multiprocessing.active_children() if p.name == "followers"]
+            assert followers and followers[0].pid is not None
+            self.killed_at = time.time()
+            os.kill(followers[0].pid, signal.SIGKILL)
+        if not self._rate_set and elapsed >= self._rate_at:
+            self._channel.set_rate(5_000_000)
+            self._rate_set = True
 
 
 def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
         tmp_path: Path) -> None:
+    spec = RunSpec("wiswarm", 2, duration=8.0, warmup=1.0)
     with Channel() as channel:
-        killer = _kill_child_later("followers", after=2.0)
-        timer = threading.Timer(4.0, channel.set_rate, args=(5_000_000,))
-        timer.start()
-        outcome = measure(channel, RunSpec("wiswarm", 2, duration=6.0, warmup=1.0), tmp_path)
-        killer.join()
-        timer.join()
+        faults = _Faults(channel, spec, kill_at=2.0, rate_at=4.0)
+        outcome = measure(channel, spec, tmp_path, on_tick=faults)
     events = " ".join(outcome.events)
     assert "followers process failed: it ended during the run (killed by signal 9); " \
         "started again" in events
     assert outcome.failed == 1
     assert "20mbit/20mbit -> 5mbit/5mbit" in events
-    assert all(f.deliveries >= 5 for f in outcome.result.followers)  # the run went on
+    assert faults.killed_at is not None
+    # the run went on: frames taken after the kill came from the process started again
+    record = read_record(tmp_path / f"{spec.label}-n{spec.n}-b{spec.batch}.csv")
+    after = {f: sum(generated > faults.killed_at for _, generated in record[f])
+             for f in spec.followers}
+    assert all(count >= 5 for count in after.values()), after
 
 
 def test_a_udp_run_after_a_udp_run_at_50_fps_delivers(tmp_path: Path) -> None:
@@ -114,8 +124,13 @@ def test_a_udp_run_after_a_udp_run_at_50_fps_delivers(tmp_path: Path) -> None:
                                                  warmup=1.0), tmp_path, threading.Event())
     counters = after.result.channel
     assert (counters["uplink_drops"], counters["reasm_fails"]) == (0.0, 0.0), counters
-    assert counters["reasm_oks"] >= 8 * 5 * 3 * 0.9
-    assert all(f.deliveries >= 5 * 3 * 0.9 for f in after.result.followers)
+    # every frame is one datagram reassembled; the counters are read (by a process
+    # started in the namespace) late on a busy machine, so they cover a window a little
+    # off the one the deliveries are counted in: half the frames is what a working
+    # count shows at any load
+    assert counters["reasm_oks"] >= 8 * 5 * 3 * 0.5, counters
+    assert all(f.deliveries >= 5 * 3 * 0.8 for f in after.result.followers), \
+        after.result.followers
     assert not after.events
 
 

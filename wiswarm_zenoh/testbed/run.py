@@ -295,13 +295,14 @@ class _LinkWatch:
         self._first = self._read()
         self._last = self._first
 
-    def _read(self) -> tuple[float, LinkCounters, LinkCounters]:
-        """(when, uplink, downlink): when between the two reads' returns (tc reads the
-        counters once started; starting it is what takes long on a busy machine)."""
+    def _read(self) -> tuple[float, LinkCounters, float, LinkCounters]:
+        """(when, uplink, when, downlink): each link's counters with the time its tc
+        returned (tc reads them once started; starting it is what takes long on a busy
+        machine, so the time before the call would be late by that)."""
         up = self._channel.uplink()
-        after_up = time.monotonic()
+        up_at = time.monotonic()
         down = self._channel.downlink()
-        return (after_up + time.monotonic()) / 2, up, down
+        return up_at, up, time.monotonic(), down
 
     def open(self) -> None:
         self._first = self._read()
@@ -312,15 +313,15 @@ class _LinkWatch:
 
     def counters(self, span: float) -> dict[str, float]:
         """``span`` aside (the medium's watch takes it): the readings say their own."""
-        (t0, up0, down0), (t1, up1, down1) = self._first, self._last
+        (up_t0, up0, down_t0, down0), (up_t1, up1, down_t1, down1) = self._first, self._last
 
-        def per_s(before: int, after: int) -> float:
-            return (after - before) / (t1 - t0) if t1 > t0 else 0.0
+        def mbps(before: int, after: int, t0: float, t1: float) -> float:
+            return (after - before) * 8 / 1e6 / (t1 - t0) if t1 > t0 else 0.0
 
         backlog = self._watch.backlog
         return {
-            "uplink_mbps": per_s(up0.sent_bytes, up1.sent_bytes) * 8 / 1e6,
-            "downlink_mbps": per_s(down0.sent_bytes, down1.sent_bytes) * 8 / 1e6,
+            "uplink_mbps": mbps(up0.sent_bytes, up1.sent_bytes, up_t0, up_t1),
+            "downlink_mbps": mbps(down0.sent_bytes, down1.sent_bytes, down_t0, down_t1),
             "uplink_drops": float(up1.dropped - up0.dropped),
             "downlink_drops": float(down1.dropped - down0.dropped),
             "uplink_backlog_kb": sum(backlog) / len(backlog) / 1e3 if backlog else 0.0,
