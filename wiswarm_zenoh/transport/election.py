@@ -37,7 +37,7 @@ log = logging.getLogger(__name__)
 
 Claim = tuple[int, str]  # (start in microseconds, name): the smallest leads
 ASK_TIMEOUT = 2.0  # seconds: the routers answer at once; this bounds a start with none
-START_ASKS = 3  # at the start, answers that lack this leader's own token: asked again
+START_ASKS = 3  # at the start, answers that timed out: asked again
 TAKEOVER_GRACE = 0.25  # seconds the active leader's token must stay away to count as gone
 
 
@@ -58,23 +58,25 @@ class Election:
         self._active = self.claim
         self._liveliness = liveliness = session.liveliness()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
-        # Watch, then ask for the tokens already there: a standby never starts active.
-        # What the watch saw go meanwhile is not taken from the answer (asked first, a
-        # token that went before the watch began would never be seen to go, and this
-        # leader would stand by for ever behind one that left).
-        self._went: set[Claim] | None = set()  # tokens seen to go, until the answer is in
+        # Ask which tokens are there, then watch: a standby never starts active. Asked
+        # after the watch's declaration, the answer can lack tokens its history brings
+        # (both reach the router together: seen with eclipse-zenoh 1.10 after a stall),
+        # and this leader would poll beside an older one. A token that goes between the
+        # answer and the watch's start is never seen to go: ``recheck`` drops it.
+        there = self._there()
+        for _ in range(START_ASKS - 1):  # an answer that timed out is asked again
+            if there is not None:
+                break
+            there = self._there()
+        if there is None:
+            log.warning("no router said which leaders are there (%d asks timed out after "
+                        "%.0f s): judging from the tokens seen from now on", START_ASKS,
+                        ASK_TIMEOUT)
+        self._claims |= there or set()
+        self._active = min(self._claims)
         self._came: set[Claim] | None = None  # tokens seen to come while recheck asks
         self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
-        there = self._there()
-        for _ in range(START_ASKS - 1):  # without our own token, the answer reached no
-            if self.claim in there:      # router (as in ``recheck``): ask again
-                break
-            there = self._there()
-        with self._lock:
-            self._claims |= there - self._went
-            self._went = None
-            self._active = min(self._claims)
 
     @property
     def active(self) -> Claim:
@@ -92,11 +94,6 @@ class Election:
                         "ignored", sample.key_expr)
             return
         with self._lock:
-            if self._went is not None:
-                if sample.kind == zenoh.SampleKind.PUT:
-                    self._went.discard(claim)
-                else:
-                    self._went.add(claim)
             if sample.kind == zenoh.SampleKind.PUT:
                 self._missed.discard(claim)
                 if self._came is not None:
@@ -122,26 +119,27 @@ class Election:
                 return
             elif claim != self.claim:  # our own token goes only when we close
                 self._claims.discard(claim)
-            if self._went is not None:  # still starting: the first verdict is made then
-                return
         self._judge()
 
-    def _there(self) -> set[Claim]:
-        """The leaders' claims whose tokens are there now."""
+    def _there(self) -> set[Claim] | None:
+        """The leaders' claims whose tokens are there now; None if the answer timed out.
+        (This session answers for its own token at once, so that one's presence proves
+        nothing; a router that does not answer in time, on a busy host or going down,
+        ends the get with an error reply, and the answer is then only part of it.)"""
         claims = set()
         for reply in self._liveliness.get(self.keys.leaders, timeout=ASK_TIMEOUT):
-            if reply.ok is not None:
-                claim = _claim_of(str(reply.ok.key_expr), self.keys.swarm)
-                if claim is not None:
-                    claims.add(claim)
+            if reply.ok is None:
+                return None
+            claim = _claim_of(str(reply.ok.key_expr), self.keys.swarm)
+            if claim is not None:
+                claims.add(claim)
         return claims
 
     def recheck(self) -> None:
         """Ask which leaders' tokens are there, and drop the claims whose token two
         answers in a row lacked (a token's going that the watch never saw, as when it
         went while the watch's history was on its way, must not keep a standby standing
-        by for ever). An answer without this leader's own token reached no router (it
-        was down, or had just come back): it says nothing. One answer is not enough
+        by for ever). An answer that timed out says nothing. One answer is not enough
         either (seen under load: a leader taken for gone is never seen to come again, and
         the standby led beside it for good), and a token the watch saw come while the
         answer was on its way is there, answer or not."""
@@ -149,7 +147,7 @@ class Election:
             self._came = set()
         there = self._there()
         with self._lock:
-            if self.claim not in there:
+            if there is None:
                 self._came, self._missed = None, set()  # no answer: none in a row
                 return
             came, self._came = self._came or set(), None
