@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import logging
+import signal
 import subprocess
 from dataclasses import replace
 from typing import Any
@@ -16,9 +17,14 @@ log = logging.getLogger(__name__)
 def run(*argv: str) -> str:
     """Run ``ip``/``tc``; RuntimeError with its stderr if it fails. In a session of its
     own: a Ctrl-C at the terminal reaches the whole process group, and must not kill the
-    commands that remove a channel while a run winds down."""
-    done = subprocess.run(argv, capture_output=True, text=True, check=False,
-                          start_new_session=True)
+    commands that remove a channel while a run winds down. One that reached it all the
+    same (between its fork and its new session: a wide moment on a busy machine) was
+    meant for this process, which has it too: the command runs again."""
+    for _ in range(2):
+        done = subprocess.run(argv, capture_output=True, text=True, check=False,
+                              start_new_session=True)
+        if done.returncode != -signal.SIGINT:
+            break
     if done.returncode != 0:
         raise RuntimeError(f"`{' '.join(argv)}` failed (exit {done.returncode}): "
                            f"{done.stderr.strip() or 'no message'}")
