@@ -5,7 +5,9 @@ frames) sees the swarm's channels advertised, subscribes and decodes what comes.
 from __future__ import annotations
 
 import base64
+import itertools
 import json
+import re
 import struct
 import time
 from typing import Any
@@ -23,6 +25,7 @@ ROOT = f"/wiswarm/{SWARM}"
 WANTED = (f"{ROOT}/deliveries", f"{ROOT}/uav0/image", f"{ROOT}/leader/stats")
 WAIT_S = 15.0
 MESSAGE_DATA = 1  # the binary opcode of a message on a subscribed channel
+UNKNOWN_CHANNEL = re.compile(r"Unknown channel ID: (\d+)")  # a subscription refused
 
 
 def first_messages(socket: ClientConnection, topics: tuple[str, ...]
@@ -30,9 +33,13 @@ def first_messages(socket: ClientConnection, topics: tuple[str, ...]
     """The first message of each of ``topics``: (its channel, its data, its log time).
     As the protocol has it, channels come (advertise) and go (unadvertise), and a
     subscription to one gone meanwhile is refused: each topic is subscribed on the
-    channel last advertised for it, again on a newer one, until a message of it came."""
+    channel last advertised for it, again on a newer one, until a message of it came.
+    The SDK also refuses, now and then, a channel it has just advertised (its record of
+    what this client was told lags the message on a busy machine: "Unknown channel
+    ID: 28"): such a one is subscribed again."""
     channels: dict[str, dict[str, Any]] = {}  # the topic's channel last advertised
     subscribed: dict[int, dict[str, Any]] = {}  # by subscription id
+    ids = itertools.count(1)
     got: dict[str, tuple[dict[str, Any], bytes, int]] = {}
     deadline = time.monotonic() + WAIT_S
     while len(got) < len(topics):
@@ -49,14 +56,15 @@ def first_messages(socket: ClientConnection, topics: tuple[str, ...]
             elif message["op"] == "unadvertise":
                 gone = set(message["channelIds"])
                 channels = {t: c for t, c in channels.items() if c["id"] not in gone}
-            fresh = [c for t, c in channels.items()
-                     if t not in got and c not in subscribed.values()]
+            elif message["op"] == "status" and \
+                    (refused := UNKNOWN_CHANNEL.fullmatch(message["message"])):
+                subscribed = {i: c for i, c in subscribed.items() if c["id"] != int(refused[1])}
+            fresh = {next(ids): c for t, c in channels.items()
+                     if t not in got and c not in subscribed.values()}
             if fresh:
-                first = len(subscribed) + 1
-                subscribed.update(enumerate(fresh, first))
+                subscribed.update(fresh)
                 socket.send(json.dumps({"op": "subscribe", "subscriptions": [
-                    {"id": index, "channelId": c["id"]}
-                    for index, c in enumerate(fresh, first)]}))
+                    {"id": index, "channelId": c["id"]} for index, c in fresh.items()]}))
     return got
 
 

@@ -51,3 +51,15 @@ def test_declarations_held_back_on_their_way_out_are_not_refusals_to_show() -> N
         egress(b"Put", b"wiswarm/C/s1.uav1/fresh"))]
     assert shown == [None] * 4 + [b"2026-11-23T11:35:12.048846Z  WARN access control "
                                   b"refused f2: Put (egress) on wiswarm/C/s1.uav1/fresh\n"]
+
+
+def test_a_node_without_tls_at_a_tls_endpoint_is_named_once_whatever_rustls_calls_it() -> None:
+    corrupt = (b"2026-11-27T15:59:21.301430Z  WARN acc-0 ThreadId(05) zenoh_link_tls::unicast: "
+               b"received corrupt message of type %s. Hint: increase the system open file "
+               b"limit.\n")
+    denials = DenialFilter()
+    shown = [denials.feed(corrupt % kind) for kind in
+             (b"UnknownProtocolVersion", b"UnknownProtocolVersion", b"InvalidContentType")]
+    assert shown[0] is not None and b"without TLS" in shown[0]
+    assert shown[1:] == [None, None]  # said once
+    assert DenialFilter().feed(corrupt % b"InvalidContentType") == shown[0]

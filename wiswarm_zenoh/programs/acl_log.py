@@ -31,8 +31,11 @@ COMMON_NAME = re.compile(rb"CertCommonName\(([^)]*)\)")
 ALLOWED = b" is authorized to "
 QUIET = b"Access control is disabled"  # said at debug on every router without rules
 # A client speaking plain TCP to a TLS listener (or the reverse): Zenoh's own line blames
-# the open file limit, every 0.5 s; said once, in words that point at the cause.
-WRONG_PROTOCOL = b"InvalidContentType"
+# the open file limit, every 0.5 s; said once, in words that point at the cause. What
+# rustls names depends on the plain message's first bytes (its length, which varies with
+# the node's id): mostly InvalidContentType, UnknownProtocolVersion where the first byte
+# happens to be a TLS record type.
+WRONG_PROTOCOL = b"zenoh_link_tls::unicast: received corrupt message of type "
 WRONG_PROTOCOL_SAID = (b"WARN a node reached this TLS endpoint without TLS (a tcp/ "
                        b"endpoint, or no certificates): give it tls/HOST:PORT and its "
                        b"config from wiswarm security (said once)\n")
