@@ -4,6 +4,7 @@ inboxes to wait on, and a barrier through the router."""
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -92,8 +93,11 @@ def replies(session: zenoh.Session, key: str, timeout: float = 2.0) -> list[byte
 
 
 def until(what: str, check: Callable[[], bool]) -> None:
-    """Retry ``check`` (each try is itself a wait, e.g. a get) until it holds."""
-    for _ in range(int(WAIT)):
+    """Retry ``check`` (each try is itself a wait, e.g. a get) until it holds, for WAIT
+    seconds: a get that no queryable matches yet (its declaration still on its way to
+    the router, on a busy machine) ends at once, so the tries are timed, not counted."""
+    deadline = time.monotonic() + WAIT
+    while time.monotonic() < deadline:
         if check():
             return
     raise AssertionError(f"never happened: {what}")
