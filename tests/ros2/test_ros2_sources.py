@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import zenoh
 
-from tests.transport.helpers import Recorder, Sessions, eventually
+from tests.transport.helpers import Recorder, Sessions, eventually, wait_until_known
 from wiswarm_zenoh import Follower, FollowerConfig
 from wiswarm_zenoh.ros2 import Ros2Options, Ros2TopicSource
 from wiswarm_zenoh.ros2.graph import data_key
@@ -149,12 +149,16 @@ def test_what_cannot_be_served_is_counted_never_a_crash(
     robot = sessions.node(port)
     follower = Follower(robot, SWARM, "d1", config=FollowerConfig(max_update_bytes=4096),
                         source=Ros2TopicSource(TOPIC, DOMAIN))
-    leader = LeaderNode(sessions.node(port), SWARM, bridge=Ros2Options(domain=DOMAIN),
+    leader_session = sessions.node(port)
+    leader = LeaderNode(leader_session, SWARM, bridge=Ros2Options(domain=DOMAIN),
                         **recorder.callbacks())
     ground = sessions.node(port)
     received: list[bytes] = []
     subscriber = ground.declare_subscriber(republished(ground),
                                            lambda s: received.append(s.payload.to_bytes()))
+    # The leader puts nothing while nobody subscribes, and each sample below is sent
+    # once: the ground's subscription must have reached it (slow on a busy machine).
+    wait_until_known(leader_session, republished(ground))
     try:
         assert any("waiting for the first sample of ROS 2 topic " + TOPIC in r.getMessage()
                    for r in caplog.records)
