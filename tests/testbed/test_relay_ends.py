@@ -65,11 +65,13 @@ def test_a_target_that_refuses_closes_the_client_and_is_logged(
     with socket.create_server((LOCAL, 0)) as closed:
         refusing = closed.getsockname()  # nothing listens there once it is closed
     caplog.set_level(logging.WARNING, logger="wiswarm_zenoh.testbed.relay")
-    with (DelayRelay((LOCAL, 0), refusing, DELAY) as relay,
-          socket.create_connection((LOCAL, relay.port), WAIT) as client):
+    with DelayRelay((LOCAL, 0), refusing, DELAY) as relay, socket.socket() as client:
         client.settimeout(WAIT)
+        client.bind((LOCAL, 0))
         source = f"{LOCAL}:{client.getsockname()[1]}"
+        # reset at once: on a busy machine, before ``connect`` has even returned
         with pytest.raises(ConnectionResetError):
+            client.connect((LOCAL, relay.port))
             client.recv(1)
         counters = relay.counters()
     assert (counters.connections, counters.unreachable, counters.active) == (1, 1, 0)

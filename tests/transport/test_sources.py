@@ -12,7 +12,7 @@ import time
 import pytest
 import zenoh
 
-from tests.transport.helpers import Recorder, Sessions, eventually
+from tests.transport.helpers import Recorder, Sessions, eventually, wait_until_known
 from wiswarm_zenoh import Follower, ZenohSource
 from wiswarm_zenoh.cli import main as cli_main
 from wiswarm_zenoh.cli import nodes
@@ -35,11 +35,15 @@ def test_plain_puts_reach_fresh_unchanged_with_their_own_time(
     sessions.router(port)
     robot = sessions.node(port)
     follower = Follower(robot, SWARM, "r1", source=ZenohSource(SOURCE))
-    leader = LeaderNode(sessions.node(port), SWARM, **recorder.callbacks())
+    leader_session = sessions.node(port)
+    leader = LeaderNode(leader_session, SWARM, **recorder.callbacks())
     ground = sessions.node(port)
     fresh: list[bytes] = []
     subscriber = ground.declare_subscriber(SwarmKeys(SWARM).fresh("r1"),
                                            lambda s: fresh.append(s.payload.to_bytes()))
+    # ``fresh`` is put only while someone subscribes, and the scan below is put once:
+    # the ground's subscription must have reached the leader (slow on a busy machine).
+    wait_until_known(leader_session, SwarmKeys(SWARM).fresh("r1"))
     try:
         assert any(f"waiting for the first sample of key {SOURCE}" in r.getMessage()
                    for r in caplog.records)
