@@ -23,12 +23,13 @@ ACCESS_CONTROL = "zenoh::net::routing::interceptor::access_control"
 # level (``-v`` or ``RUST_LOG`` shows them): a reply or final that comes after its get
 # was closed (a poll the leader gave up; it counts such replies itself), undeclarations
 # of tokens and subscribers whose session went first (a node stopping, a standby taking
-# over), and the scouting delay of a client whose router is not up yet (the node says
-# itself when no router is reached).
+# over), the scouting delay of a client whose router is not up yet (the node says
+# itself when no router is reached), and the admin space's bookkeeping of a link event
+# whose transport is already gone or not yet there (peers opening and closing links).
 EXPECTED = ("zenoh::net::routing::dispatcher::queries=error,zenoh::api::session=error,"
             "zenoh::net::routing::dispatcher::token=error,"
             "zenoh::net::routing::dispatcher::pubsub=error,"
-            "zenoh::net::runtime::orchestrator=error")
+            "zenoh::net::runtime::orchestrator=error,zenoh::api::admin=error")
 LEVELS = (f"warn,{EXPECTED}", "info", "debug")  # by -v count
 
 
