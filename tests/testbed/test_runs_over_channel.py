@@ -75,34 +75,42 @@ def test_push_frames_cross_the_shaped_link(tmp_path: Path) -> None:
 
 
 class _Faults:
-    """Kills the followers' process, then lowers the channel's rate, at times into the
-    run (its ``on_tick``: from when its nodes were ready, however long they took to
-    start on a busy machine), and keeps when the kill was."""
+    """Kills the followers' process, then lowers the channel's rate, at times from the
+    run's first tick (its nodes ready, however long they took to start on a busy
+    machine), on timers of their own: the run's supervising loop reads the channel with
+    tc calls, seconds apart when loaded, and must not set when the faults come. Keeps
+    when the kill was."""
 
-    def __init__(self, channel: Channel, spec: RunSpec, kill_at: float, rate_at: float) -> None:
-        self._channel, self._span = channel, spec.warmup + spec.duration
-        self._kill_at, self._rate_at = kill_at, rate_at
+    def __init__(self, channel: Channel, kill_at: float, rate_at: float) -> None:
+        self._timers = [threading.Timer(kill_at, self._kill),
+                        threading.Timer(rate_at, channel.set_rate, (5_000_000,))]
         self.killed_at: float | None = None  # wall clock, as the record's stamps
-        self._rate_set = False
+        self._started = False
 
     def __call__(self, fraction: float) -> None:
-        elapsed = fraction * self._span
-        if self.killed_at is None and elapsed >= self._kill_at:
-            followers = [p for p in multiprocessing.active_children() if p.name == "followers"]
-            assert followers and followers[0].pid is not None
-            self.killed_at = time.time()
-            os.kill(followers[0].pid, signal.SIGKILL)
-        if not self._rate_set and elapsed >= self._rate_at:
-            self._channel.set_rate(5_000_000)
-            self._rate_set = True
+        if not self._started:
+            self._started = True
+            for timer in self._timers:
+                timer.start()
+
+    def _kill(self) -> None:
+        followers = [p for p in multiprocessing.active_children() if p.name == "followers"]
+        assert followers and followers[0].pid is not None
+        self.killed_at = time.time()
+        os.kill(followers[0].pid, signal.SIGKILL)
+
+    def join(self) -> None:
+        for timer in self._timers:
+            timer.join()
 
 
 def test_a_killed_follower_process_and_a_rate_change_are_survived_and_reported(
         tmp_path: Path) -> None:
-    spec = RunSpec("wiswarm", 2, duration=8.0, warmup=1.0)
+    spec = RunSpec("wiswarm", 2, duration=12.0, warmup=1.0)
     with Channel() as channel:
-        faults = _Faults(channel, spec, kill_at=2.0, rate_at=4.0)
+        faults = _Faults(channel, kill_at=2.0, rate_at=4.0)
         outcome = measure(channel, spec, tmp_path, on_tick=faults)
+        faults.join()
     events = " ".join(outcome.events)
     assert "followers process failed: it ended during the run (killed by signal 9); " \
         "started again" in events
