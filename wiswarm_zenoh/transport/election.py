@@ -57,20 +57,20 @@ class Election:
         self.flaps = 0  # times the active leader's token came back within the grace
         self._active = self.claim
         self._liveliness = liveliness = session.liveliness()
+        # Ask which tokens are there, before and after declaring ours, then watch: a
+        # standby never starts active. An answer to a get that reaches the router with a
+        # declaration of this session's (its token, its history watch) can lack tokens
+        # the router has (seen with eclipse-zenoh 1.10, loaded and after a stall), and
+        # this leader would poll beside an older one; the ask after ours sees a leader
+        # that started at the same moment. A token that goes before the watch starts is
+        # never seen to go: ``recheck`` drops it.
+        before = self._ask()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
-        # Ask which tokens are there, then watch: a standby never starts active. Asked
-        # after the watch's declaration, the answer can lack tokens its history brings
-        # (both reach the router together: seen with eclipse-zenoh 1.10 after a stall),
-        # and this leader would poll beside an older one. A token that goes between the
-        # answer and the watch's start is never seen to go: ``recheck`` drops it.
-        there = self._there()
-        for _ in range(START_ASKS - 1):  # an answer that timed out is asked again
-            if there is not None:
-                break
-            there = self._there()
+        after = self._ask()
+        there = None if before is None and after is None else (before or set()) | (after or set())
         if there is None:
             log.warning("no router said which leaders are there (%d asks timed out after "
-                        "%.0f s): judging from the tokens seen from now on", START_ASKS,
+                        "%.0f s): judging from the tokens seen from now on", 2 * START_ASKS,
                         ASK_TIMEOUT)
         self._claims |= there or set()
         self._active = min(self._claims)
@@ -120,6 +120,13 @@ class Election:
             elif claim != self.claim:  # our own token goes only when we close
                 self._claims.discard(claim)
         self._judge()
+
+    def _ask(self) -> set[Claim] | None:
+        """``_there``, asked again (up to START_ASKS in all) while it times out."""
+        for _ in range(START_ASKS):
+            if (there := self._there()) is not None:
+                return there
+        return None
 
     def _there(self) -> set[Claim] | None:
         """The leaders' claims whose tokens are there now; None if the answer timed out.
