@@ -114,8 +114,11 @@ def test_a_leader_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
     over."""
     keys = SwarmKeys(SWARM)
     changes = threading.Semaphore(0)
-    older = sessions.node(port).liveliness().declare_token(keys.leader("older", 1))
-    standby = sessions.node(port)
+    older = sessions.node(port, "client").liveliness().declare_token(keys.leader("older", 1))
+    # Clients of the router, as deployed leaders are. Two peers' answers lacked the
+    # older token at the start (twice in 20 loaded runs, cause not found; the watch
+    # brought it a moment later), which is no part of what is tested here.
+    standby = sessions.node(port, "client")
     _token_known(standby, keys.leader("older", 1))
     election = Election(standby, keys, "standby", 2, changes.release)
     try:
