@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from wiswarm_apps.tracking import mavlink_link
 from wiswarm_apps.tracking.geometry import Arena, CameraModel, world_to_ned
 from wiswarm_apps.tracking.mavlink_link import MavlinkBridge, MavlinkUAV
 from wiswarm_apps.tracking.render import Renderer
@@ -38,6 +39,13 @@ def bridge(port: int) -> Iterator[MavlinkBridge]:
     link.start()
     yield link
     link.stop()
+
+
+class SlowHandler(logging.Handler):
+    """Holds each record a while before the root logger's handlers see it."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        time.sleep(0.3)
 
 
 def vehicle_at(port: int, x: float, y: float, z: float, yaw_ned: float = 0.0) -> SimVehicle:
@@ -116,10 +124,16 @@ def test_link_drop_is_reported_and_the_link_recovers(
     assert bridge.wait_connected(TIMEOUT)
     assert wait(lambda: bridge.pose_at(time.time()) is not None)
     uav = MavlinkUAV(bridge, Renderer(World(WorldConfig(seed=1, duration_s=10))))
-    with caplog.at_level(logging.WARNING):
-        vehicle.stop()
-        assert wait(lambda: not bridge.connected)
-    assert "link lost: no heartbeat" in caplog.text
+    slow = SlowHandler()  # a preempted link thread: whoever sees the link down finds why
+    logging.getLogger(mavlink_link.__name__).addHandler(slow)
+    try:
+        with caplog.at_level(logging.WARNING):
+            vehicle.stop()
+            assert wait(lambda: not bridge.connected)
+        assert "link lost: no heartbeat" in caplog.text
+        assert bridge.last_error is not None and bridge.last_error.startswith("no heartbeat")
+    finally:
+        logging.getLogger(mavlink_link.__name__).removeHandler(slow)
     assert bridge.pose_at(time.time()) is None
     assert uav.capture(time.time()) is None  # no pose, no frame; nothing raises
     again = vehicle_at(port, 6.0, 3.0, 2.0)

@@ -207,14 +207,15 @@ class MavlinkBridge:
             self._set_disconnected(f"no heartbeat for {now - self._heartbeat_at:.1f} s")
 
     def _set_disconnected(self, reason: str) -> None:
+        """Records and logs why before `connected` turns false, so whoever sees it false
+        also finds the reason."""
         with self._lock:
-            was_connected = self._connected.is_set()
+            if self._connected.is_set():
+                self.last_error = reason
+                log.warning("%s: vehicle link lost: %s", self.name, reason)
             self._connected.clear()
             self._position = None
             self._yaw_ned = None
-        if was_connected:
-            self.last_error = reason
-            log.warning("%s: vehicle link lost: %s", self.name, reason)
 
     def _send_setpoint(self, conn: Any) -> None:
         waypoint = self.guard.due_next(self._clock())
