@@ -49,6 +49,7 @@ DEFAULT_MAX_HELD = 16 * 1024 * 1024  # per direction: 20 ms at 800 MB/s
 DEFAULT_MAX_LAG = 0.002
 LATE = 0.001  # a chunk written later than this after its due time counts as late
 CONNECT_TIMEOUT = 10.0  # s, to reach the target
+SEND_STUCK = 0.5  # s a send in progress may take to end once its connection is reset
 _LINGER_RESET = struct.pack("ii", 1, 0)  # close() then sends a RST, not a FIN
 
 
@@ -85,6 +86,9 @@ class _Pipe:
         self.fifo: deque[tuple[float, bytes | None]] = deque()
         self.held, self.paused = 0, False  # bytes in the FIFO; the reader waits for room
         self.writing_due: float | None = None  # the due time of the chunk being written
+
+    def send_ended(self) -> bool:
+        return self.writing_due is None
 
     def _must_pause(self) -> bool:
         """The writer is behind (its socket blocks), or too much is held."""
@@ -141,6 +145,9 @@ class _Pipe:
                     raise ConnectionResetError("the other side reset the connection")
                 self.dst.sendall(data) if data else self.dst.shutdown(socket.SHUT_WR)
             except OSError as exc:
+                with self.cond:
+                    self.writing_due = None
+                    self.cond.notify_all()  # an abort() waiting for this send to end
                 if not conn.aborted:
                     log.info("relay %s: %s: resetting both sides", conn.name, exc)
                 conn.abort()
@@ -148,7 +155,7 @@ class _Pipe:
             with self.cond:
                 self.held -= len(data)
                 self.writing_due = None
-                if self.paused:
+                if self.paused or conn.aborted:
                     self.cond.notify_all()
             conn.relay._note(**{"to_target_bytes" if self.to_target else "from_target_bytes":
                                 len(data)}, chunks=1, late_chunks=late > LATE, max_lateness_s=late)
@@ -193,22 +200,32 @@ class _Connection:
                 log.info("relay %s: closed", self.name)
 
     def abort(self) -> None:
-        """Reset both sides now: wake every thread (a reader by SHUT_RD, a writer blocked
-        in a send by SHUT_WR, a waiting one by notify) and drop what is held."""
+        """Reset both sides now: wake every thread (a reader by SHUT_RD, a waiting one by
+        notify), drop what is held; the last thread out closes with a RST.
+
+        A send in progress is let end (up to SEND_STUCK): only a shutdown of writing
+        wakes one blocked for good, and on a socket whose buffer has room it sends a FIN
+        at once, which the peer would read as a clean end before the RST. A send still
+        blocked has a full buffer: the FIN waits behind it and the RST drops both."""
         with self._lock:
             if self.aborted:
                 return
             self.aborted = True
         for pipe in self.pipes:  # each socket is one pipe's dst
             with pipe.cond:
-                sending = pipe.writing_due is not None
                 pipe.fifo.clear()
                 pipe.cond.notify_all()
             with contextlib.suppress(OSError):
                 pipe.dst.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, _LINGER_RESET)
-                pipe.dst.shutdown(socket.SHUT_RDWR if sending else socket.SHUT_RD)
+                pipe.dst.shutdown(socket.SHUT_RD)
         if self.relay.link is not None:  # a reader waiting for room in the link
             self.relay.link.wake()
+        for pipe in self.pipes:
+            with pipe.cond:
+                stuck = not pipe.cond.wait_for(pipe.send_ended, SEND_STUCK)
+            if stuck:
+                with contextlib.suppress(OSError):
+                    pipe.dst.shutdown(socket.SHUT_WR)
 
 
 class DelayRelay:
