@@ -39,7 +39,6 @@ import os
 import signal
 import socket
 import statistics
-import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -98,11 +97,12 @@ def cli_node(argv: list[str], log_path: str) -> None:
     """A ``spawn`` child running ``wiswarm *argv``: its stdout (the leader's table) is
     dropped, its stderr (warnings, a traceback) kept in ``log_path``."""
     from wiswarm_zenoh.cli.main import main
+    from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
 
     with open(os.devnull, "w") as devnull, open(log_path, "a") as log:
         os.dup2(devnull.fileno(), 1)
         os.dup2(log.fileno(), 2)
-    sys.exit(main(argv))
+    exit_without_finalizing(main(argv))
 
 
 def proc_status(pid: int) -> dict[str, int]:

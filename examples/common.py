@@ -10,8 +10,11 @@ import math
 import threading
 import time
 from collections.abc import Callable
+from typing import NoReturn
 
 import zenoh
+
+from wiswarm_zenoh.programs import exit_without_finalizing
 
 LOCAL_ROUTER = "tcp/127.0.0.1:7447"  # where ``wiswarm router`` listens by default
 
@@ -64,7 +67,10 @@ def wait_until(end: float) -> None:
     threading.Event().wait(left(end))
 
 
-def run(main: Callable[[], None]) -> None:
-    """Run ``main``; Ctrl-C (SIGINT) ends it cleanly, its ``with`` blocks closed."""
+def run(main: Callable[[], None]) -> NoReturn:
+    """Run ``main``; Ctrl-C (SIGINT) ends it cleanly, its ``with`` blocks closed. Then
+    end the process without the interpreter's finalisation: before Python 3.14, a Zenoh
+    thread still calling back into Python then can crash it (``exit_without_finalizing``)."""
     with contextlib.suppress(KeyboardInterrupt):
         main()
+    exit_without_finalizing(0)

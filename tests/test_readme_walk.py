@@ -51,7 +51,7 @@ class Node(Process):
 
     def finish(self, timeout: float = 60.0) -> int:
         code = self.popen.wait(timeout)
-        time.sleep(0.1)  # the reader thread takes the last lines (the pipe is closed)
+        self.read_to_end(timeout)
         return code
 
     def quiet(self) -> None:

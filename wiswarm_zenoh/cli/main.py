@@ -14,10 +14,11 @@ import argparse
 import logging
 import sys
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from wiswarm_zenoh.extras import missing_extra, require
 from wiswarm_zenoh.options import OneLineParser, UsageError
+from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
 from wiswarm_zenoh.programs.router_watch import NoRouterReached
 from wiswarm_zenoh.programs.runners import sigterm_as_ctrl_c
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
@@ -115,5 +116,11 @@ def _run(argv: Sequence[str], registrars: Sequence[Registrar] | None) -> int:
     return code
 
 
+def console() -> NoReturn:
+    """The ``wiswarm`` script: ``main``, then an end without the interpreter's
+    finalisation, which a Zenoh thread could otherwise crash (``process_exit``)."""
+    exit_without_finalizing(main())
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    console()

@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import FrameType
-from typing import Any, Protocol
+from typing import Any, NoReturn, Protocol
 
 import zenoh
 
@@ -31,6 +31,7 @@ from wiswarm_zenoh.programs.frames import (
     SyntheticFrames,
     capture_time,
 )
+from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
 from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
 from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
@@ -108,7 +109,7 @@ def sigterm_as_ctrl_c() -> Iterator[None]:
 
 
 def run_child(target: Callable[..., object], args: tuple[Any, ...],
-              ready: ReadySignal, log_level: int = logging.WARNING) -> None:
+              ready: ReadySignal, log_level: int = logging.WARNING) -> NoReturn:
     """Entry point of a ``spawn`` child: runs ``target(*args, stop, ready)`` until SIGTERM.
     Its log lines look like its parent's (``LOG_FORMAT``, at ``log_level``): a spawned
     process starts with no logging set up, and its warnings came out bare, with no time
@@ -121,17 +122,20 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
     finishing anyway, and ignores SIGTERM too: a parent stopping its children then would
     only cut the interpreter's shutdown short (and it would show as a crash). SIG_IGN
     holds through the interpreter's finalisation; a Python handler does not.
+    The child then ends without the finalisation (``process_exit``).
     """
     logging.basicConfig(level=log_level, format=LOG_FORMAT)
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda signum, frame: stop.set())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    code = 0
     try:
         target(*args, stop, ready)
     except NoRouterReached:  # said in its one line: no traceback, exit code 1
-        raise SystemExit(1) from None
+        code = 1
     finally:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    exit_without_finalizing(code)  # not into a finalising interpreter: process_exit
 
 
 def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = None,

@@ -44,7 +44,8 @@ class Output:
         self.popen = popen
         self.lines: list[str] = []
         self._cond = threading.Condition()
-        threading.Thread(target=self._read, daemon=True).start()
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
 
     def _read(self) -> None:
         assert self.popen.stdout is not None
@@ -62,6 +63,10 @@ class Output:
             if not self._cond.wait_for(lambda: self._find(texts) is not None, timeout):
                 raise RuntimeError(f"{self.name} never said {texts!r}: {self.lines[-5:]}")
             return str(self._find(texts))
+
+    def read_to_end(self, timeout: float) -> None:
+        """Wait until every line the process wrote is in ``lines`` (its output closed)."""
+        self._reader.join(timeout)
 
     def said(self, text: str) -> bool:
         with self._cond:
