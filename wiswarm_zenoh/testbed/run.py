@@ -16,6 +16,7 @@ is noted when seen; the WiFi medium falling behind real time fails it.
 from __future__ import annotations
 
 import csv
+import functools
 import json
 import logging
 import multiprocessing
@@ -47,7 +48,7 @@ from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.netns import run_in
 from wiswarm_zenoh.testbed.nodes import Placement
-from wiswarm_zenoh.testbed.reassembly import reassembly
+from wiswarm_zenoh.testbed.reassembly import Reassembly, reassembly
 from wiswarm_zenoh.testbed.spec import LinkCounters
 from wiswarm_zenoh.testbed.wifi import WifiMedium
 from wiswarm_zenoh.testbed.wifi_spec import window_counters
@@ -242,7 +243,7 @@ def failed_line(failed: int, where: str) -> str:
 
 
 class _Watch:
-    """Samples the channel during a run: its queue, its rate (noting any change)."""
+    """Keeps the uplink's queue as sampled during a run, and its rate (noting any change)."""
 
     def __init__(self, channel: Channel, started: float, events: list[str]) -> None:
         self._channel = channel
@@ -251,8 +252,8 @@ class _Watch:
         self._rates = (channel.spec.rate_bps, channel.spec.down_bps)
         self.backlog: list[int] = []
 
-    def sample(self) -> None:
-        self.backlog.append(self._channel.uplink().backlog_bytes)
+    def sample(self, uplink_backlog: int) -> None:
+        self.backlog.append(uplink_backlog)
         current = Channel.attach(self._channel.run_id).spec
         rates = (current.rate_bps, current.down_bps)
         if rates != self._rates:
@@ -308,8 +309,8 @@ class _LinkWatch:
         self._first = self._read()
 
     def sample(self) -> None:
-        self._watch.sample()
         self._last = self._read()
+        self._watch.sample(self._last[1].backlog_bytes)
 
     def counters(self, span: float) -> dict[str, float]:
         """``span`` aside (the medium's watch takes it): the readings say their own."""
@@ -326,6 +327,46 @@ class _LinkWatch:
             "downlink_drops": float(down1.dropped - down0.dropped),
             "uplink_backlog_kb": sum(backlog) / len(backlog) / 1e3 if backlog else 0.0,
         }
+
+
+class _Sampler:
+    """Reads the channel (``watch``) on a thread of its own: the window's first counters
+    at ``t0``, then a sample every SUPERVISE_PERIOD until stopped. Each read is a tc or
+    ns-3 call, seconds long on a busy machine: on the supervising loop, they delayed the
+    restart of a process that died. What the thread raises (MediumFailed: the medium fell
+    behind real time) is raised again by ``check``, on the supervising loop."""
+
+    def __init__(self, watch: _LinkWatch | _MediumWatch,
+                 read_reassembly: Callable[[], Reassembly], t0: float) -> None:
+        self.watch = watch
+        self.reasm0: Reassembly | None = None  # the leader side's, as the window opened
+        self._read_reassembly = read_reassembly
+        self._t0 = t0
+        self._error: Exception | None = None
+        self._stopped = threading.Event()
+        self._thread = threading.Thread(target=self._sample, name="testbed sampler",
+                                        daemon=True)
+        self._thread.start()
+
+    def _sample(self) -> None:
+        try:
+            if self._stopped.wait(max(0.0, self._t0 - time.time())):
+                return
+            self.watch.open()
+            self.reasm0 = self._read_reassembly()
+            while not self._stopped.wait(SUPERVISE_PERIOD):
+                self.watch.sample()
+        except Exception as exc:  # raised again where the run is supervised
+            self._error = exc
+
+    def check(self) -> None:
+        if self._error is not None:
+            raise self._error
+
+    def stop(self) -> None:
+        """Stop sampling; a read under way ends first."""
+        self._stopped.set()
+        self._thread.join()
 
 
 def measure(channel: Medium, spec: RunSpec, workdir: Path,
@@ -355,23 +396,24 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
         watch: _LinkWatch | _MediumWatch = (
             _LinkWatch(channel, started, events) if isinstance(channel, Channel)
             else _MediumWatch(channel))
-        opened = False
-        while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
-            for name in names:
-                if not children.alive(name):
-                    failed += 1
-                    events.append(f"t={time.time() - started:.1f}s: "
-                                  f"{ending(name, children.exit_code(name), early=True)}; "
-                                  "started again")
-                    children.restart(name)
-            if time.time() >= t0:
-                if not opened:
-                    watch.open()
-                    reasm0, opened = reassembly(channel.leader_ns), True
-                watch.sample()
-            if on_tick is not None:
-                on_tick(min(1.0, (time.time() - started) / (t1 - started)))
-        end = min(time.time(), t1)
+        sampler = _Sampler(watch, functools.partial(reassembly, channel.leader_ns), t0)
+        try:
+            while (now := time.time()) < t1 and not stop.wait(min(SUPERVISE_PERIOD, t1 - now)):
+                sampler.check()
+                for name in names:
+                    if not children.alive(name):
+                        failed += 1
+                        events.append(f"t={time.time() - started:.1f}s: "
+                                      f"{ending(name, children.exit_code(name), early=True)}; "
+                                      "started again")
+                        children.restart(name)
+                if on_tick is not None:
+                    on_tick(min(1.0, (time.time() - started) / (t1 - started)))
+            end = min(time.time(), t1)
+        finally:
+            sampler.stop()
+        sampler.check()
+        reasm0 = sampler.reasm0 or reasm0
         watch.sample()
         reasm1 = reassembly(channel.leader_ns)
         children.stop([group[0] for group in groups])  # the senders before their receiver
