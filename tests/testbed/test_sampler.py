@@ -10,7 +10,7 @@ import time
 import pytest
 
 from wiswarm_zenoh.testbed.reassembly import Reassembly
-from wiswarm_zenoh.testbed.run import _Sampler
+from wiswarm_zenoh.testbed.channel_watch import ChannelSampler
 from wiswarm_zenoh.testbed.wifi_spec import MediumFailed
 
 WAIT = 30.0
@@ -44,7 +44,7 @@ class SlowWatch:
 def test_a_slow_read_holds_back_nothing_and_the_window_opens_at_its_time() -> None:
     watch = SlowWatch()
     t0 = time.time() + 0.2
-    sampler = _Sampler(watch, lambda: CLEAN, t0)  # type: ignore[arg-type]
+    sampler = ChannelSampler(watch, lambda: CLEAN, t0)
     try:
         assert watch.entered.wait(WAIT)  # its first sample is under way, blocked for good
         sampler.check()  # what the supervising loop calls: it returns all the same
@@ -62,7 +62,7 @@ def test_a_slow_read_holds_back_nothing_and_the_window_opens_at_its_time() -> No
 def test_a_medium_failure_met_by_a_read_is_raised_by_check() -> None:
     watch = SlowWatch(fail_on=2)
     watch.go.set()
-    sampler = _Sampler(watch, lambda: CLEAN, time.time())  # type: ignore[arg-type]
+    sampler = ChannelSampler(watch, lambda: CLEAN, time.time())
     with watch.sampled:
         assert watch.sampled.wait_for(lambda: watch.samples >= 2, WAIT)
     sampler.stop()
@@ -72,7 +72,7 @@ def test_a_medium_failure_met_by_a_read_is_raised_by_check() -> None:
 
 def test_a_run_stopped_before_its_window_never_opens_it() -> None:
     watch = SlowWatch()
-    sampler = _Sampler(watch, lambda: CLEAN, time.time() + 3600)  # type: ignore[arg-type]
+    sampler = ChannelSampler(watch, lambda: CLEAN, time.time() + 3600)
     sampler.stop()
     sampler.check()
     assert watch.opened_at is None and sampler.reasm0 is None
