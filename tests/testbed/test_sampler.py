@@ -9,8 +9,8 @@ import time
 
 import pytest
 
-from wiswarm_zenoh.testbed.reassembly import Reassembly
 from wiswarm_zenoh.testbed.channel_watch import ChannelSampler
+from wiswarm_zenoh.testbed.reassembly import Reassembly
 from wiswarm_zenoh.testbed.wifi_spec import MediumFailed
 
 WAIT = 30.0
