@@ -106,39 +106,64 @@ def test_a_leader_that_comes_while_a_standby_asks_again_stays_active(
         election.close()
 
 
-def test_a_leader_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
-    sessions: Sessions, router: zenoh.Session, port: int
+def test_a_claim_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
+    sessions: Sessions, router: zenoh.Session, port: int, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """One answer without the active leader's token leaves it active, as does one that
-    timed out (None); two in a row (a token gone that the watch never saw go) hand
-    over."""
+    """A claim only answers gave (its token went before the watch could see it): one
+    answer without it leaves it, as does one that timed out (None); two in a row drop
+    it. A claim the watch saw come stays however many answers lack it."""
     keys = SwarmKeys(SWARM)
     changes = threading.Semaphore(0)
-    older = sessions.node(port, "client").liveliness().declare_token(keys.leader("older", 1))
-    # Clients of the router, as deployed leaders are. Two peers' answers lacked the
-    # older token at the start (twice in 20 loaded runs, cause not found; the watch
-    # brought it a moment later), which is no part of what is tested here.
+    older = sessions.node(port, "client").liveliness().declare_token(keys.leader("older", 3))
     standby = sessions.node(port, "client")
-    _token_known(standby, keys.leader("older", 1))
-    election = Election(standby, keys, "standby", 2, changes.release)
+    _token_known(standby, keys.leader("older", 3))
+    ghost = (1, "ghost")  # in the start's answers, never a token the watch sees
+    asked = Election._there
+    monkeypatch.setattr(Election, "_there", lambda self: (asked(self) or set()) | {ghost})
+    election = Election(standby, keys, "standby", 5, changes.release)
+    monkeypatch.undo()
     try:
-        assert election.active == (1, "older")
+        assert election.active == ghost
         lacking = {election.claim}  # an answer with this leader's token only
 
-        election._there = lacking.copy  # type: ignore[method-assign]
-        election.recheck()
-        election._there = lambda: None  # type: ignore[method-assign]  # timed out:
-        election.recheck()  # no answer, so the next lacking one is the first again
-        election._there = lacking.copy  # type: ignore[method-assign]
-        election.recheck()
-        assert election.active == (1, "older")
-        election._there = lambda: {election.claim, (1, "older")}  # type: ignore[method-assign]
-        election.recheck()
-        election._there = lacking.copy  # type: ignore[method-assign]
-        election.recheck()
-        assert election.active == (1, "older")  # the answer between had it
-        election.recheck()
-        assert election.leading and changes.acquire(timeout=0)
+        def answer(*answers: set[tuple[int, str]] | None) -> None:
+            for each in answers:
+                election._there = lambda a=each: None if a is None else set(a)  # type: ignore[method-assign]
+                election.recheck()
+
+        answer(lacking, None, lacking)  # no answer between: the next lacking one is first
+        assert election.active == ghost
+        answer({election.claim, ghost}, lacking)  # the answer between had it
+        assert election.active == ghost
+        answer(lacking)
+        assert election.active == (3, "older") and changes.acquire(timeout=0)
+        answer(lacking, lacking, lacking)  # the watch saw this one come, and not go
+        assert election.active == (3, "older") and not election.leading
+    finally:
+        election.close()
+        older.undeclare()
+
+
+def test_answers_that_lack_a_token_the_watch_sees_change_nothing(
+    sessions: Sessions, router: zenoh.Session, port: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """In peer mode an answer can lack a token that is there (eclipse-zenoh 1.10, on a
+    busy host: a peer that reaches the token's holder directly and through the router).
+    The watch does not miss it: a standby whose every answer lacks the older leader
+    still starts standing by, and stays so."""
+    keys = SwarmKeys(SWARM)
+    changes = threading.Semaphore(0)
+    older = sessions.node(port).liveliness().declare_token(keys.leader("older", 1))
+    standby = sessions.node(port)
+    _token_known(standby, keys.leader("older", 1))
+    without_older = {(2, "standby")}  # what such an answer holds: this leader's token
+    monkeypatch.setattr(Election, "_there", lambda self: set(without_older))
+    election = Election(standby, keys, "standby", 2, changes.release)
+    try:
+        assert election.active == (1, "older") and not election.leading
+        for _ in range(3):
+            election.recheck()
+        assert election.active == (1, "older") and not changes.acquire(timeout=0)
     finally:
         election.close()
         older.undeclare()
@@ -151,8 +176,8 @@ def test_a_standby_whose_router_answers_late_asks_again_and_stands_by(
     router or not: one that timed out (a router frozen past the ask's timeout, as a busy
     host's can be) is only part of it, and a standby that took it for the whole would
     start polling beside the older leader. It asks again; and the answer that comes at
-    the thaw is whole (asked with the watch already declared, it lacked the older
-    leader's token, which came through the watch's history only later)."""
+    the thaw, or the watch's history that comes with it, holds the older leader's token
+    (an answer at the thaw alone lacked it)."""
     wiswarm = Path(sys.executable).with_name("wiswarm")
     router = subprocess.Popen(
         [str(wiswarm), "router", "-l", f"tcp/127.0.0.1:{port}", "--no-multicast-scouting"],

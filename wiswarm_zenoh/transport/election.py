@@ -38,6 +38,7 @@ log = logging.getLogger(__name__)
 Claim = tuple[int, str]  # (start in microseconds, name): the smallest leads
 ASK_TIMEOUT = 2.0  # seconds: the routers answer at once; this bounds a start with none
 START_ASKS = 3  # at the start, answers that timed out: asked again
+START_SETTLE = 0.25  # seconds a leader that finds itself the oldest waits for the watch
 TAKEOVER_GRACE = 0.25  # seconds the active leader's token must stay away to count as gone
 
 
@@ -56,27 +57,34 @@ class Election:
         self._leaving: dict[Claim, threading.Timer] = {}  # the active's token, gone lately
         self.flaps = 0  # times the active leader's token came back within the grace
         self._active = self.claim
+        self._watched: set[Claim] = set()  # tokens the watch saw come and not go
+        self._went: set[Claim] = set()  # tokens the watch saw go and not come back
+        self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
+        self._judging = False  # until the start's verdict: the watch only takes notes
+        self._noted = threading.Condition(self._lock)
         self._liveliness = liveliness = session.liveliness()
-        # Ask which tokens are there, before and after declaring ours, then watch: a
-        # standby never starts active. An answer to a get that reaches the router with a
-        # declaration of this session's (its token, its history watch) can lack tokens
-        # the router has (seen with eclipse-zenoh 1.10, loaded and after a stall), and
-        # this leader would poll beside an older one; the ask after ours sees a leader
-        # that started at the same moment. A token that goes before the watch starts is
-        # never seen to go: ``recheck`` drops it.
+        # The watch (history included) first, then the asks, before and after declaring
+        # our token, and the verdict from all of them. In peer mode a liveliness get can
+        # lack a token that is there (eclipse-zenoh 1.10: about one answer in ten on a
+        # busy host, once a peer reaches the token's holder both directly and through the
+        # router; never in client mode), while the watch, told of each declaration, does
+        # not miss it: what it saw come stands until it sees it go. A token an answer
+        # holds but the watch saw go is gone. A leader that finds itself the oldest waits
+        # START_SETTLE for the watch's history still on its way: a standby never starts
+        # active.
+        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         before = self._ask()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
         after = self._ask()
-        there = None if before is None and after is None else (before or set()) | (after or set())
-        if there is None:
+        if before is None and after is None:
             log.warning("no router said which leaders are there (%d asks timed out after "
                         "%.0f s): judging from the tokens seen from now on", 2 * START_ASKS,
                         ASK_TIMEOUT)
-        self._claims |= there or set()
-        self._active = min(self._claims)
-        self._came: set[Claim] | None = None  # tokens seen to come while recheck asks
-        self._missed: set[Claim] = set()  # claims the last answer to recheck lacked
-        self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
+        with self._lock:
+            self._claims |= ((before or set()) | (after or set())) - self._went
+            self._noted.wait_for(lambda: min(self._claims) != self.claim, START_SETTLE)
+            self._active = min(self._claims)
+            self._judging = True
 
     @property
     def active(self) -> Claim:
@@ -95,9 +103,9 @@ class Election:
             return
         with self._lock:
             if sample.kind == zenoh.SampleKind.PUT:
+                self._watched.add(claim)
+                self._went.discard(claim)
                 self._missed.discard(claim)
-                if self._came is not None:
-                    self._came.add(claim)
                 leaving = self._leaving.pop(claim, None)
                 if leaving is not None:
                     leaving.cancel()
@@ -110,15 +118,20 @@ class Election:
                     log.warning("another leader is named %s too (started at %d us): "
                                 "the older of the two leads", claim[1], claim[0])
                 self._claims.add(claim)
-            elif claim == self._active and claim != self.claim and self._grace > 0:
-                if claim not in self._leaving:
-                    timer = threading.Timer(self._grace, self._gone, (claim,))
-                    timer.daemon = True
-                    self._leaving[claim] = timer
-                    timer.start()
-                return
+                self._noted.notify_all()
             elif claim != self.claim:  # our own token goes only when we close
+                self._watched.discard(claim)
+                self._went.add(claim)
+                if self._judging and claim == self._active and self._grace > 0:
+                    if claim not in self._leaving:
+                        timer = threading.Timer(self._grace, self._gone, (claim,))
+                        timer.daemon = True
+                        self._leaving[claim] = timer
+                        timer.start()
+                    return
                 self._claims.discard(claim)
+            if not self._judging:
+                return
         self._judge()
 
     def _ask(self) -> set[Claim] | None:
@@ -143,22 +156,20 @@ class Election:
         return claims
 
     def recheck(self) -> None:
-        """Ask which leaders' tokens are there, and drop the claims whose token two
-        answers in a row lacked (a token's going that the watch never saw, as when it
-        went while the watch's history was on its way, must not keep a standby standing
-        by for ever). An answer that timed out says nothing. One answer is not enough
-        either (seen under load: a leader taken for gone is never seen to come again, and
-        the standby led beside it for good), and a token the watch saw come while the
-        answer was on its way is there, answer or not."""
-        with self._lock:
-            self._came = set()
+        """Ask which leaders' tokens are there, and drop a claim that only an answer
+        gave (the watch never saw its token) once two answers in a row lack it: a token
+        that went before the watch could see it must not keep a standby standing by for
+        ever. A claim the watch saw come stands until the watch sees it go: in peer mode
+        an answer can lack a token that is there (see ``__init__``), and taking it for
+        gone made a standby lead beside the active leader for good. An answer that timed
+        out says nothing."""
         there = self._there()
         with self._lock:
             if there is None:
-                self._came, self._missed = None, set()  # no answer: none in a row
+                self._missed = set()  # no answer: none in a row
                 return
-            came, self._came = self._came or set(), None
-            lacked = self._claims - there - came - {self.claim} - set(self._leaving)
+            lacked = (self._claims - there - self._watched - {self.claim}
+                      - set(self._leaving))
             stale, self._missed = lacked & self._missed, lacked
             if not stale:
                 return
