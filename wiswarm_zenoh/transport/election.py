@@ -65,13 +65,13 @@ class Election:
         self._liveliness = liveliness = session.liveliness()
         # The watch (history included) first, then the asks, before and after declaring
         # our token, and the verdict from all of them. In peer mode a liveliness get can
-        # lack a token that is there (eclipse-zenoh 1.10: about one answer in ten on a
-        # busy host, once a peer reaches the token's holder both directly and through the
-        # router; never in client mode), while the watch, told of each declaration, does
-        # not miss it: what it saw come stands until it sees it go. A token an answer
-        # holds but the watch saw go is gone. A leader that finds itself the oldest waits
-        # START_SETTLE for the watch's history still on its way: a standby never starts
-        # active.
+        # lack a token that is there (eclipse-zenoh 1.10, once a peer reaches the token's
+        # holder both directly and through the router: up to one answer in five on a busy
+        # host, none on a quiet one or in client mode; bench_liveliness_answers.py),
+        # while the watch, told of each declaration, does not miss it: what it saw come
+        # stands until it sees it go. A token an answer holds but the watch saw go is
+        # gone. A leader that finds itself the oldest waits START_SETTLE for the watch's
+        # history still on its way: a standby never starts active.
         self._watch = liveliness.declare_subscriber(keys.leaders, self._on_token, history=True)
         before = self._ask()
         self._token = liveliness.declare_token(keys.leader(name, started_us))
