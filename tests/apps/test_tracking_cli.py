@@ -11,7 +11,7 @@ import pytest
 
 from wiswarm_apps.tracking.cli import add_demo_arguments
 from wiswarm_apps.tracking.demo import DemoOptions
-from wiswarm_apps.tracking.demo_runs import options_from, run_demo
+from wiswarm_apps.tracking.demo_runs import LOOK_AFTER, options_from, run_demo
 from wiswarm_apps.tracking.report import channel_entry
 from wiswarm_zenoh.options import OneLineParser, UsageError
 from wiswarm_zenoh.testbed import WifiSpec
@@ -64,6 +64,17 @@ def test_bad_values_are_usage_errors(argv: tuple[str, ...], words: str) -> None:
 
 
 @pytest.mark.parametrize(("argv", "words"), [
+    (("--no-dashboard",), "not with --no-dashboard"),
+    (("--channel", "tbf"), "there is none with --channel tbf"),
+    (("--channel", "wifi"), "there is none with --channel wifi"),
+])
+def test_keep_dashboard_needs_one(argv: tuple[str, ...], words: str) -> None:
+    assert options_from(parse("--keep-dashboard")).dashboard_port is not None
+    with pytest.raises(UsageError, match=f"--keep-dashboard needs the dashboard: {words}"):
+        options_from(parse("--keep-dashboard", *argv))
+
+
+@pytest.mark.parametrize(("argv", "words"), [
     (("--system", "udp"), "invalid choice"),
     (("--uavs", "0"), "--uavs: must be >= 1"),
     (("--duration", "nan"), "--duration: expected a finite number"),
@@ -100,6 +111,7 @@ def test_a_short_run_prints_a_summary_and_writes_the_files(
     assert code == 0
     printed = capsys.readouterr().out
     assert "uav0: AoI mean" in printed and "car in view" in printed
+    assert printed.rstrip().endswith(LOOK_AFTER)  # the dashboard went: how to keep it
     summary = json.loads((out / "summary.json").read_text())
     assert summary["frame_px"] == 160 and set(summary["per_uav"]) == {"uav0"}
     assert summary["systems"]["wiswarm"]["channel"] is None  # loopback

@@ -2,9 +2,10 @@
 and for any program that wants one beside its swarm (the tracking demo).
 
 The web server runs an asyncio loop on that thread; the Zenoh subscribers run on Zenoh's
-threads and hand their changes to it. ``close()`` stops both. The server (aiohttp, the
-dashboard extra) is loaded when a dashboard is made, not with this package, whose live
-points and feed the experiments use without it.
+threads and hand their changes to it. ``close()`` stops both; ``finish()`` stops the
+subscribers only, so that a run that has ended stays on view after its session closes.
+The server (aiohttp, the dashboard extra) is loaded when a dashboard is made, not with
+this package, whose live points and feed the experiments use without it.
 """
 
 from __future__ import annotations
@@ -69,8 +70,9 @@ class Dashboard:
             self._thread.join()
             raise self._error
         self.url = _url(host, self._runner.addresses[0][1])
+        self._listening = contextlib.ExitStack()  # the subscribers: until finish or close
         try:
-            self._feed = Feed(session, self.state)
+            self._listening.callback(Feed(session, self.state).close)
         except BaseException:
             self._stop_server()
             raise
@@ -105,9 +107,15 @@ class Dashboard:
             self._loop.run_until_complete(self._runner.cleanup())
             self._loop.close()
 
+    def finish(self) -> None:
+        """Stop the subscribers and go on serving what they brought, marked finished,
+        until ``close()``: the session may close, the page still shows the run's end."""
+        self._listening.close()
+        self.state.finish()
+
     def close(self) -> None:
         """Stop the subscribers, then the server (the browsers are told it went)."""
-        self._feed.close()
+        self._listening.close()
         self._stop_server()
         self._owned.close()
 

@@ -93,6 +93,7 @@ class SwarmState:
         self._leader: Record | None = None
         self._leader_seen_at: float | None = None
         self._started_at = clock()
+        self._finished_at: float | None = None  # when the feed stopped for good
         self._tracking: dict[str, Record] = {}
         self._runs: dict[str, Record] = {}
         self.bad_input = BadInputLog(log)  # the feed reports to it, the browsers see its total
@@ -157,6 +158,13 @@ class SwarmState:
                 del self._runs[next(iter(self._runs))]
             self._send({"type": "run", "record": record})
 
+    def finish(self) -> None:
+        """Nothing more will come (the run shown has ended): the browsers are told, so
+        that they show the last state as it was instead of letting it age out of view."""
+        with self._lock:
+            self._finished_at = self._clock()
+            self._send(self._status())
+
     def status(self) -> None:
         """Pass on whether a leader is heard (and since when not), and the counters."""
         with self._lock:
@@ -165,10 +173,14 @@ class SwarmState:
     def _status(self) -> Message:
         now = self._clock()
         seen = self._leader_seen_at
-        return {"type": "status", "now": now, "started_at": self._started_at,
-                "leader_seen_at": seen,
-                "leader_alive": seen is not None and now - seen <= LEADER_SILENCE_S,
-                "bad_input": self.bad_input.total()}
+        message: Message = {
+            "type": "status", "now": now, "started_at": self._started_at,
+            "leader_seen_at": seen,
+            "leader_alive": seen is not None and now - seen <= LEADER_SILENCE_S,
+            "bad_input": self.bad_input.total()}
+        if self._finished_at is not None:  # only then: a live swarm's status is unchanged
+            message["finished_at"] = self._finished_at
+        return message
 
     def snapshot(self) -> tuple[Message, int]:
         """Everything a new browser needs, and the number of the last change in it."""

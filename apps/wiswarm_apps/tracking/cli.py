@@ -12,6 +12,11 @@ over a 20 Mbit/s shared link in user space (no root), and the two are compared:
     wiswarm demo --channel none                     # on bare loopback (nothing scarce)
     wiswarm demo --channel tbf --channel-rate 5mbit # namespaces and tc tbf (root)
     wiswarm demo --channel wifi                     # each UAV an ns-3 802.11g station (root)
+    wiswarm demo --keep-dashboard                   # then each run's page stays until Ctrl-C
+
+The dashboard (and Foxglove's live server) show a run while it lasts; to look at runs
+once they have ended, --keep-dashboard keeps each run's dashboard serving the run's last
+state until Ctrl-C, and every run is recorded to its run.mcap, which Foxglove opens.
 """
 
 from __future__ import annotations
@@ -91,6 +96,12 @@ def add_demo_arguments(parser: argparse.ArgumentParser) -> None:
                         f"on port {DEFAULT_PORT}, or a free one, and prints its URL, and "
                         "serves the run live to Foxglove beside it; not with --channel "
                         "tbf or wifi, where they would listen inside a namespace)")
+    parser.add_argument("--keep-dashboard", action="store_true",
+                        help="once the runs are over and the summary printed, keep serving "
+                        "each run's dashboard, frozen at the run's end, until Ctrl-C (it "
+                        "prints where); the first run keeps its port, later runs take "
+                        "free ones. Foxglove's live server is not kept (it has no history "
+                        "for a latecomer): open the run's run.mcap in Foxglove instead")
     parser.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
     add_ros2_arguments(parser)  # the demo's adapter by default: frames as images, poses
 

@@ -9,7 +9,9 @@ every UAV is told to go, through its own pipe. During the warm-up the cars stand
 and each UAV settles over its car; the measurement window is [epoch, epoch + duration].
 At its end the UAVs hand back their measurements and end. Children ignore Ctrl-C: it
 ends the window early here, the UAVs are told to stop, and the run is reported as far
-as it went.
+as it went. The dashboard goes with the run, or, handed a caller's stack to keep it
+(``wiswarm demo --keep-dashboard``), stops listening and serves the run's end until
+that stack closes.
 """
 
 from __future__ import annotations
@@ -177,6 +179,7 @@ class DemoRun:
     deliveries: list[DeliveryRow]
     uavs: dict[str, UavResult]
     polls: int
+    dashboard_url: str | None = None  # where the run's page was (or still is) served
 
 
 @dataclass
@@ -257,8 +260,10 @@ def _start(children: Children, name: str, ns: str | None, target: Callable[..., 
         children.start(name, run_in, ns, target, *args, wait=wait)
 
 
-def run(options: DemoOptions) -> DemoRun:
-    """Run the demo and return its measurements (no files are written here)."""
+def run(options: DemoOptions, pages: ExitStack | None = None) -> DemoRun:
+    """Run the demo and return its measurements (no files are written here). With
+    ``pages``, the run's dashboard outlives it: it stops listening as the run ends and
+    serves the run's last state until ``pages`` closes."""
     world = options.world_config()
     ctx = multiprocessing.get_context("spawn")
     with ExitStack() as stack:
@@ -286,8 +291,15 @@ def run(options: DemoOptions) -> DemoRun:
         stack.callback(vision.stop)
         board = TrackingBoard(session, SWARM)
         stack.callback(board.close)
+        url = None
         if options.dashboard_port is not None:
-            stack.callback(_dashboard(session, options).close)
+            page = _dashboard(session, options, kept=pages is not None)
+            url = page.url
+            if pages is None:
+                stack.callback(page.close)
+            else:  # served on by the caller; no longer fed once the session is closing
+                pages.callback(page.close)
+                stack.callback(page.finish)
         if options.mcap is not None or options.dashboard_port is not None:
             stack.enter_context(_foxglove(session, options))
 
@@ -318,12 +330,12 @@ def run(options: DemoOptions) -> DemoRun:
                 link.stop()
         uav_results = _collect(links, children)
     return DemoRun(options, epoch, measured, aoi, stats, vision.busy_s, reception.rows(),
-                   uav_results, polls)
+                   uav_results, polls, url)
 
 
-def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
+def _dashboard(session: zenoh.Session, options: DemoOptions, kept: bool) -> Dashboard:
     """The live page of the demo's swarm, on another port if the one asked for is taken
-    (another dashboard runs); its address on stderr."""
+    (another dashboard runs); its address on stderr, and whether it stays after."""
     assert options.dashboard_port is not None
     try:
         page = Dashboard(session, SWARM, options.dashboard_port)
@@ -331,7 +343,9 @@ def _dashboard(session: zenoh.Session, options: DemoOptions) -> Dashboard:
         log.warning("port %d: %s; the dashboard takes a free one", options.dashboard_port,
                     exc.strerror or exc)
         page = Dashboard(session, SWARM, 0)
-    print(f"dashboard: {page.url} (live while the demo runs)", file=sys.stderr, flush=True)
+    when = ("live while the run lasts, then its end until Ctrl-C" if kept
+            else "live while the demo runs")
+    print(f"dashboard: {page.url} ({when})", file=sys.stderr, flush=True)
     return page
 
 

@@ -1,7 +1,9 @@
 // The live page: one WebSocket to the dashboard (a snapshot, then every change), drawn
 // every animation frame. Times of deliveries are the leader's clock; the page keeps an
 // estimate of it (the latest delivery time heard, against the page's own clock), so
-// the sawtooth's right edge is the leader's "now" even if the clocks differ.
+// the sawtooth's right edge is the leader's "now" even if the clocks differ. Once the
+// dashboard says its swarm is finished (a run that ended, kept on view), the right edge
+// stays at the last delivery heard and the map does not fade: the run's end, as it was.
 //
 // For tests and benchmarks the page exposes ``window.wiswarm``: frames drawn and
 // frames/s, connections made, and when the last delivery batch was drawn.
@@ -33,6 +35,7 @@ const map = new ArenaMap($("map"), (uav) => colourOf(uav));
 const experiments = new Experiments($("experiments"), $("metric"));
 let leader = null;  // the latest leader stats
 let status = null;  // the latest status message
+let finishedPage = null;  // page time when the dashboard was first heard finished
 let offsets = [];  // [page time, delivered_at - page time] of recent batches
 let serverOffset = 0;  // the dashboard's clock minus the page's
 let pending = null;  // deliveries received, not drawn yet
@@ -89,6 +92,7 @@ function onSnapshot(snapshot) {
   table.reset(snapshot.stats);
   leader = snapshot.leader;
   offsets = [];
+  finishedPage = null;
   map.reset(snapshot.tracking, pageNow());
   experiments.reset(snapshot.runs);
   onStatus(snapshot.status);
@@ -97,6 +101,7 @@ function onSnapshot(snapshot) {
 function onStatus(message) {
   status = message;
   serverOffset = message.now - pageNow();
+  if (finished() && finishedPage === null) finishedPage = pageNow();
   const bad = $("bad-input");
   bad.hidden = message.bad_input === 0;
   bad.textContent = `${message.bad_input} bad messages skipped (see the dashboard's log)`;
@@ -107,9 +112,19 @@ function clock(seconds) {
   return new Date(seconds * 1000).toLocaleTimeString();
 }
 
+function finished() {
+  return status !== null && status.finished_at != null;
+}
+
 function showLeader() {
   const element = $("leader");
   if (status === null) return;
+  if (finished()) {
+    element.textContent = `finished at ${clock(status.finished_at)}: the run's last ` +
+      "state, no longer live";
+    element.classList.remove("alarm");
+    return;
+  }
   if (!status.leader_alive) {
     const since = status.leader_seen_at === null ? status.started_at : status.leader_seen_at;
     element.textContent = `no leader since ${clock(since)}`;
@@ -157,8 +172,10 @@ function connect(attempt = 0) {
 }
 
 function frame() {
-  const now = leaderNow();
-  const present = status !== null && status.leader_alive && leader !== null
+  const over = finished();
+  const now = over && Number.isFinite(sawtooth.known) ? sawtooth.known : leaderNow();
+  // finished: every follower counts (the UAVs left the leader as the run ended)
+  const present = !over && status !== null && status.leader_alive && leader !== null
     ? new Set(leader.followers) : null;
   sawtooth.draw(now, present);
   const page = pageNow();
@@ -166,7 +183,7 @@ function frame() {
     tableAt = page;
     const names = new Set([...sawtooth.traces.keys(), ...table.stats.keys()]);
     table.render(names, (f) => sawtooth.age(f), colourOf, present);
-    map.draw(page);
+    map.draw(finishedPage === null ? page : Math.min(page, finishedPage));
   }
   if (page - fpsMark[0] >= 1) {
     live.fps = (live.frames - fpsMark[1]) / (page - fpsMark[0]);
