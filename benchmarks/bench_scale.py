@@ -25,9 +25,14 @@ makes a poll time out, and the leader then rightly polls that follower less for 
 leader's garbage-collector pauses. Last, a bare round-robin ``get`` loop over the same
 followers (prepared queriers, one get in flight) gives Zenoh's own S for comparison.
 ``--profile K`` prints the poll threads' top K functions by CPU time (cProfile).
+``--reask-pairs K`` then measures what asking again for the followers' tokens costs
+(``transport/discovery``: a liveliness get answered for all N, at its pace): K pairs of
+windows of ``--reask-seconds``, asking on in one and off in the other, in alternating
+order; the median of the pairs' polls/s ratio (off / on) is the cost.
 
     .venv/bin/python benchmarks/bench_scale.py                  # N = 100, 300, 1000
     .venv/bin/python benchmarks/bench_scale.py -n 1000 --seconds 5 --profile 25
+    .venv/bin/python benchmarks/bench_scale.py -n 1000 --seconds 5 --reask-pairs 8
 """
 
 from __future__ import annotations
@@ -250,11 +255,42 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             machine1 = machine_busy()
             rss_end = rss_bytes() - rss0
             timeouts1 = timeouts(node, session)  # after it
+            if args.reask_pairs:
+                reask_cost(node, args.reask_pairs, args.reask_seconds)
     counts, means = window_figures(watch, followers, t0, t1)
     return joined, polled, rss_joined, rss_end, Window(
         t1 - t0, polls1 - polls0, cpu1 - cpu0, machine1 - machine0, thread1 - thread0,
         counts, means,
         timeouts1 - timeouts0, pauses, fast1 - fast0)
+
+
+def reask_cost(node: LeaderNode, pairs: int, seconds: float) -> None:
+    """Polls/s with the followers' tokens asked for again (at the default pace) and
+    without, in alternating windows; prints the median ratio and the asks made."""
+    period, off = node.discovery.period, 1e9
+    ratios, rates = [], {period: [], off: []}
+    asks_on, time_on = 0, 0.0
+    for pair in range(pairs):
+        rate = {}
+        for pace in (period, off) if pair % 2 == 0 else (off, period):
+            node.discovery.period = pace
+            time.sleep(0.5)  # an answer of the other pace still coming is in
+            polls, asks, start = node.polls, node.discovery.reasks, time.perf_counter()
+            time.sleep(seconds)
+            took = time.perf_counter() - start
+            rate[pace] = (node.polls - polls) / took
+            rates[pace].append(rate[pace])
+            if pace == period:
+                asks_on, time_on = asks_on + node.discovery.reasks - asks, time_on + took
+        ratios.append(rate[off] / rate[period])
+    node.discovery.period = period
+    quartiles = statistics.quantiles(ratios, n=4) if len(ratios) > 1 else ratios * 3
+    print(f"  asking again ({asks_on / time_on:.2f} asks/s): "
+          f"{statistics.median(rates[period]):.0f} polls/s, off: "
+          f"{statistics.median(rates[off]):.0f}; off/on median {statistics.median(ratios):.3f}"
+          f" (quartiles {quartiles[0]:.3f} .. {quartiles[2]:.3f}, {pairs} pairs of "
+          f"{seconds:g} s; {node.discovery.found_by_answer} tokens found by asking)"
+          f"   target <= 1.02", flush=True)
 
 
 def timeouts(node: LeaderNode, session: zenoh.Session) -> int:
@@ -389,6 +425,10 @@ def main() -> None:
     parser.add_argument("--control-period", type=float, default=LeaderConfig.control_period,
                         help="seconds between repeats of unchanged control (each wakes every "
                         "follower of every host)")
+    parser.add_argument("--reask-pairs", type=int, default=0, metavar="K",
+                        help="pairs of windows with asking again on and off (default 0)")
+    parser.add_argument("--reask-seconds", type=float, default=3.0,
+                        help="length of each of those windows")
     parser.add_argument("--profile", type=int, default=0, metavar="K",
                         help="cProfile the leader's poll thread and print its top K functions")
     args = parser.parse_args()

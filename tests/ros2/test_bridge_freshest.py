@@ -41,6 +41,9 @@ class NoControl:
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         raise AssertionError("no waypoints in this test")
 
+    def expect(self, follower: str) -> None:
+        raise AssertionError("no source tokens in this test")
+
 
 def delivery(follower: str, seq: int, at: float | None = None) -> Delivered:
     at = 1000.0 + seq if at is None else at

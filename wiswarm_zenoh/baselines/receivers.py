@@ -35,6 +35,7 @@ from wiswarm_zenoh.baselines.tally import FollowerTally
 from wiswarm_zenoh.core import AoITracker, WireError
 from wiswarm_zenoh.programs.runners import DeliveryRecord
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD
@@ -89,8 +90,8 @@ class Receiver:
             self._leader_stats = self._entities.enter_context(session.declare_publisher(
                 self.keys.leader_stats, encoding=zenoh.Encoding.APPLICATION_JSON))
             self._entities.callback(self._undeclare_stats)
-            self._entities.enter_context(session.liveliness().declare_subscriber(
-                self.keys.members, self._on_member, history=True))
+            members = Discovery(session, self.keys.members, self._on_member, "follower token")
+            self._entities.callback(members.close)
             if system == "push":
                 self._entities.enter_context(session.declare_subscriber(
                     f"{self.keys.prefix}/*/{PUSH_LEAF}", self._on_sample))
@@ -108,20 +109,20 @@ class Receiver:
 
     # --- input (Zenoh's and the socket server's threads) ---
 
-    def _on_member(self, sample: zenoh.Sample) -> None:
-        key, now = str(sample.key_expr), self._clock()
+    def _on_member(self, key: str, joined: bool) -> None:
+        now = self._clock()
         follower = self.keys.follower_of(key, "members")
         if follower is None:
             self.bad_input.report(key, "not a valid member key")
             return
         with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
+            if joined:
                 self._tally(follower, now)
             else:
                 self._tallies.pop(follower, None)
                 self._errors.pop(follower, None)
         log.info("follower %s %s", follower,
-                 "joined" if sample.kind == zenoh.SampleKind.PUT else "left")
+                 "joined" if joined else "left")
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         now, key = self._clock(), str(sample.key_expr)

@@ -52,7 +52,7 @@ from wiswarm_zenoh.recording import schemas
 from wiswarm_zenoh.recording.scene import arena_update
 from wiswarm_zenoh.ros2 import IMAGE, POSE_STAMPED, UpdateAdapter
 from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
-from wiswarm_zenoh.transport.watch import Handler, json_payload, loads
+from wiswarm_zenoh.transport.watch import Handler, TokenHandler, json_payload, loads
 
 log = logging.getLogger(__name__)
 NS_PER_S = 1_000_000_000
@@ -91,7 +91,7 @@ class SwarmChannels:
             handlers[self.keys.all_fresh] = self._on_fresh
         return handlers
 
-    def liveliness(self) -> dict[str, Handler]:
+    def liveliness(self) -> dict[str, TokenHandler]:
         """The liveliness tokens to watch: members and leaders."""
         return {self.keys.members: self._on_member, self.keys.leaders: self._on_leader}
 
@@ -179,19 +179,17 @@ class SwarmChannels:
                           lambda t: PoseInFrameChannel(t, context=self._context),
                           _pose(message, generated), generated)
 
-    def _on_member(self, key: str, sample: zenoh.Sample) -> None:
+    def _on_member(self, key: str, joined: bool) -> None:
         follower = self.keys.follower_of(key, "members")
         if follower is None:
             raise ValueError("not a member's token")
-        joined = sample.kind == zenoh.SampleKind.PUT
         self._note(LogLevel.Info if joined else LogLevel.Warning,
                    f"follower {follower} {'joined' if joined else 'left'}")
 
-    def _on_leader(self, key: str, sample: zenoh.Sample) -> None:
+    def _on_leader(self, key: str, started: bool) -> None:
         parts = key.split("/")
         if len(parts) != 5:
             raise ValueError("not a leader's token")
-        started = sample.kind == zenoh.SampleKind.PUT
         self._note(LogLevel.Info if started else LogLevel.Warning,
                    f"leader {parts[3]} {'is up' if started else 'went'}")
 

@@ -89,7 +89,7 @@ class Ros2Bridge:
         self._control = control
         self._diagnostics = self._node.publisher(DIAGNOSTICS, DIAGNOSTIC_ARRAY)
         self._republisher = Republisher(session, self._keys, self._node, self.namespace,
-                                        self.bad_input)
+                                        self.bad_input, control.expect)
         self._followers: dict[str, list[Ros2Publisher]] = {}
         self._waypoint_topics: set[str] = set()  # followers whose Path is listened to
         # Per follower, the freshest delivery unsent and its publishers (None: its source's

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 import threading
+from collections.abc import Callable
 
 import zenoh
 
@@ -17,46 +18,49 @@ from wiswarm_zenoh.ros2.messages import RosType
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
 from wiswarm_zenoh.ros2.topic_source import parse_source_token
 from wiswarm_zenoh.transport import BadInputLog, SwarmKeys
-from wiswarm_zenoh.transport.entities import undeclare
+from wiswarm_zenoh.transport.discovery import Discovery
 
 log = logging.getLogger(__name__)
 
 
 class Republisher:
-    """Follows the source tokens of ``keys``' swarm; ``publisher(follower)`` is the
-    publisher of that follower's ROS 2 source republished under ``namespace``, or None
-    for a follower that serves no ROS 2 topic."""
+    """Follows the source tokens of ``keys``' swarm (``discovery``: asked again for what
+    Zenoh's first answer missed); ``publisher(follower)`` is the publisher of that
+    follower's ROS 2 source republished under ``namespace``, or None for a follower that
+    serves no ROS 2 topic. ``on_source`` hears of each follower found serving one (the
+    leader then awaits its member token)."""
 
     def __init__(self, session: zenoh.Session, keys: SwarmKeys, node: Ros2Node,
-                 namespace: str, bad_input: BadInputLog) -> None:
+                 namespace: str, bad_input: BadInputLog,
+                 on_source: Callable[[str], object] = lambda follower: None) -> None:
         self._keys, self._node, self._namespace = keys, node, namespace
         self._bad_input = bad_input
         self._sources: dict[str, tuple[str, RosType]] = {}  # follower: (topic, type)
         self._publishers: dict[tuple[str, str, RosType], Ros2Publisher] = {}
         self._lock = threading.Lock()
-        self._tokens = session.liveliness().declare_subscriber(
-            keys.all_sources, zenoh.handlers.Callback(self._on_token, indirect=False),
-            history=True)
+        self._on_source = on_source
+        self._tokens = Discovery(session, keys.all_sources, self._on_token,
+                                 "ROS 2 source token")
 
     def topic(self, follower: str, source_topic: str) -> str:
         """Where a follower's source topic is republished (a checked ROS name)."""
         return check_topic(f"{self._namespace}/{ros_token(follower)}{source_topic}")
 
-    def _on_token(self, sample: zenoh.Sample) -> None:
-        key = str(sample.key_expr)
+    def _on_token(self, key: str, alive: bool) -> None:
         parsed = parse_source_token(self._keys, key)
         if parsed is None:
             self._bad_input.report(key, "not a follower's ROS 2 source token")
             return
         follower, topic, kind = parsed
         with self._lock:
-            if sample.kind == zenoh.SampleKind.PUT:
+            if alive:
                 self._sources[follower] = (topic, kind)
             elif self._sources.get(follower) == (topic, kind):
                 del self._sources[follower]
-        if sample.kind == zenoh.SampleKind.PUT:
+        if alive:
             log.info("follower %s serves ROS 2 topic %s (%s): republished as it came",
                      follower, topic, kind.name)
+            self._on_source(follower)
 
     def publisher(self, follower: str) -> Ros2Publisher | None:
         """The publisher of ``follower``'s source (made on first use, then kept)."""
@@ -73,4 +77,4 @@ class Republisher:
         return found
 
     def close(self) -> None:
-        undeclare(self._tokens)
+        self._tokens.close()

@@ -14,9 +14,12 @@ from wiswarm_zenoh.core import Delivered, FollowerStats
 
 class ControlTarget(Protocol):
     """What a bridge may do to the leader: set a follower's control (checked as for any
-    caller: ValueError for waypoints the wire does not allow)."""
+    caller: ValueError for waypoints the wire does not allow), and say a follower is
+    there by another sign than its member token (its token is then asked for faster)."""
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None: ...
+
+    def expect(self, follower: str) -> None: ...
 
 
 class LeaderBridge(Protocol):

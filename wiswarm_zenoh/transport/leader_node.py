@@ -30,6 +30,7 @@ from wiswarm_zenoh.core import Delivered, FollowerStats, Leader, LeaderConfig, v
 from wiswarm_zenoh.core.config import FRAGMENT_HEADER_BYTES
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.bridge import BridgeOptions
+from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.leader_role import LeaderRole
 from wiswarm_zenoh.transport.links import FollowerLink
@@ -116,6 +117,12 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         return list(self._membership.followers)
 
     @property
+    def discovery(self) -> Discovery:
+        """How the followers' tokens are found: its ``reasks`` and ``found_by_answer``
+        say how often asking again found one the liveliness watch had missed."""
+        return self._membership.discovery
+
+    @property
     def polls(self) -> int:
         """Polls sent so far."""
         return self._leader.polls
@@ -152,6 +159,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         if follower not in self._membership.followers:
             raise ValueError(f"unknown follower {follower!r}")
         self._inbox.put(partial(self._apply, self._leader.set_control, follower, checked))
+
+    def expect(self, follower: str) -> None:
+        """``follower`` is there by another sign than its member token (a bridge saw its
+        source token): its token is asked for faster until it joins."""
+        self._membership.expect(follower)
 
     def observe_urgency(self, follower: str, v: float) -> None:
         """The application's urgency signal for one follower, into its weight's EMA."""

@@ -1,4 +1,5 @@
-"""Which followers a leader has, from their liveliness tokens, and a link to each.
+"""Which followers a leader has, from their liveliness tokens (found by ``discovery``,
+which asks again for what Zenoh's first answer missed), and a link to each.
 
 A token's coming and going is posted on Zenoh's thread, as a command to the poll
 thread's inbox, and applied there, so the core changes only there. A follower whose
@@ -21,8 +22,8 @@ import zenoh
 
 from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.edge import site_of
-from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.notify import notify
@@ -59,18 +60,29 @@ class Membership:
         self.followers: list[str] = []  # those polled (a copy: read from any thread)
         self._on_join, self._on_leave = on_join, on_leave
         self._departed_at: dict[str, float] = {}  # followers gone, not forgotten yet
+        self._expected: set[str] = set()  # there by another sign, their token not seen
         self._leaving: dict[str, threading.Timer] = {}  # tokens gone lately (the grace)
         self._leaving_lock = threading.Lock()
-        self._tokens = session.liveliness().declare_subscriber(keys.members, self._on_token,
-                                                               history=True)
+        # Asked again faster while a follower that left is still in the stats: its
+        # return is awaited.
+        self.discovery = Discovery(session, keys.members, self._on_token, "follower token",
+                                   expecting=self._awaiting)
 
-    def _on_token(self, sample: zenoh.Sample) -> None:
-        key = str(sample.key_expr)
+    def expect(self, follower: str) -> None:
+        """``follower`` is there by another sign than its token (its ROS 2 source token,
+        say): asked for faster until it joins. (Any thread.)"""
+        if follower not in self.followers:
+            self._expected.add(follower)
+
+    def _awaiting(self) -> bool:
+        self._expected.difference_update(self.followers)
+        return bool(self._departed_at or self._expected)
+
+    def _on_token(self, key: str, joined: bool) -> None:
         follower = self._keys.follower_of(key, "members")
         if follower is None:
             self._bad_input.report(key, "not a valid member key")
             return
-        joined = sample.kind == zenoh.SampleKind.PUT
         with self._leaving_lock:
             leaving = self._leaving.pop(follower, None)
             if leaving is not None:
@@ -129,7 +141,7 @@ class Membership:
                 log.info("follower %s forgotten (gone for %.0f s)", follower, now - left_at)
 
     def close(self) -> None:
-        undeclare(self._tokens)
+        self.discovery.close()
         with self._leaving_lock:
             for timer in self._leaving.values():
                 timer.cancel()

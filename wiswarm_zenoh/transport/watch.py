@@ -1,7 +1,8 @@
 """Subscriptions to a swarm's keys for tools that only watch (the ``Observer``, the
 dashboard, the MCAP recorder, the Foxglove server): anyone may publish on those keys, so
 each handler's ValueError or WireError is bad input, counted and logged with the
-sample's key."""
+sample's key. Liveliness tokens are followed by ``discovery`` (asked again for what
+Zenoh's first answer missed)."""
 
 from __future__ import annotations
 
@@ -14,8 +15,10 @@ import zenoh
 
 from wiswarm_zenoh.core import WireError
 from wiswarm_zenoh.transport.badinput import BadInputLog
+from wiswarm_zenoh.transport.discovery import Discovery
 
 Handler = Callable[[str, zenoh.Sample], None]
+TokenHandler = Callable[[str, bool], None]  # a token's key, and whether it came or went
 
 
 def loads(payload: bytes) -> Any:
@@ -34,11 +37,12 @@ def json_payload(handler: Callable[[str, Any], None]) -> Handler:
 
 
 class Watch:
-    """One subscriber per key expression of ``handlers`` on ``session``, until
-    ``close()``; handlers run on Zenoh's threads."""
+    """One subscriber per key expression of ``handlers``, and one ``Discovery`` per key
+    expression of ``liveliness``, on ``session`` until ``close()``; handlers run on
+    Zenoh's threads."""
 
     def __init__(self, session: zenoh.Session, handlers: Mapping[str, Handler],
-                 bad_input: BadInputLog, liveliness: Mapping[str, Handler] | None = None
+                 bad_input: BadInputLog, liveliness: Mapping[str, TokenHandler] | None = None
                  ) -> None:
         self._session = session  # held: a session nobody references is closed
         self._bad_input = bad_input
@@ -47,9 +51,10 @@ class Watch:
             for key_expr, handler in handlers.items():
                 self._entities.enter_context(session.declare_subscriber(
                     key_expr, self._guarded(handler)))
-            for key_expr, handler in (liveliness or {}).items():
-                self._entities.enter_context(session.liveliness().declare_subscriber(
-                    key_expr, self._guarded(handler), history=True))
+            for key_expr, on_token in (liveliness or {}).items():
+                discovery = Discovery(session, key_expr, self._guarded_token(on_token),
+                                      "liveliness token")
+                self._entities.callback(discovery.close)
         except BaseException:
             self._entities.close()
             raise
@@ -62,6 +67,14 @@ class Watch:
             except (ValueError, WireError) as exc:
                 self._bad_input.report(key, str(exc))
         return on_sample
+
+    def _guarded_token(self, handler: TokenHandler) -> TokenHandler:
+        def on_token(key: str, alive: bool) -> None:
+            try:
+                handler(key, alive)
+            except ValueError as exc:
+                self._bad_input.report(key, str(exc))
+        return on_token
 
     def close(self) -> None:
         self._entities.close()
