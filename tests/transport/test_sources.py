@@ -16,7 +16,7 @@ from tests.transport.helpers import Recorder, Sessions, eventually, wait_until_k
 from wiswarm_zenoh import Follower, ZenohSource
 from wiswarm_zenoh.cli import main as cli_main
 from wiswarm_zenoh.cli import nodes
-from wiswarm_zenoh.transport import LeaderNode, SwarmKeys
+from wiswarm_zenoh.transport import LeaderNode, SwarmKeys, source_feed
 
 SWARM = "keys"
 SOURCE = "robot/lidar/scan"
@@ -95,3 +95,39 @@ def test_bad_source_flags_are_one_line_and_exit_2(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("wiswarm follower: error: ")
     assert message in err
+
+
+def test_a_source_silent_for_a_while_is_named_in_one_warning(
+        sessions: Sessions, port: int, caplog: pytest.LogCaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """A mistyped key or topic: nothing ever comes. At the default level (WARNING) the
+    user still sees which source is silent, once."""
+    monkeypatch.setattr(source_feed, "SILENT_AFTER", 0.2)
+    caplog.set_level(logging.WARNING)
+    sessions.router(port)
+    follower = Follower(sessions.node(port), SWARM, "r1", source=ZenohSource("robot/typo"))
+    try:
+        eventually("the warning", lambda: any("no sample of key robot/typo in 0 s"
+                                              in r.getMessage() for r in caplog.records))
+    finally:
+        follower.close()
+    assert len([r for r in caplog.records if "no sample of" in r.getMessage()]) == 1
+
+
+def test_a_source_that_speaks_in_time_is_not_warned_about(
+        sessions: Sessions, port: int, caplog: pytest.LogCaptureFixture,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(source_feed, "SILENT_AFTER", 1.0)
+    caplog.set_level(logging.INFO)
+    sessions.router(port)
+    robot = sessions.node(port)
+    follower = Follower(robot, SWARM, "r1", source=ZenohSource(SOURCE))
+    try:
+        robot.put(SOURCE, b"at once")
+        eventually("served", lambda: any("serving key" in r.getMessage()
+                                         for r in caplog.records))
+        served = next(r for r in caplog.records if "serving key" in r.getMessage())
+        eventually("a second after", lambda: time.time() > served.created + 1.5)
+    finally:
+        follower.close()
+    assert not any("no sample of" in r.getMessage() for r in caplog.records)

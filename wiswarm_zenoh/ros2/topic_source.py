@@ -31,6 +31,7 @@ from wiswarm_zenoh.ros2.graph import (
     unmangle,
 )
 from wiswarm_zenoh.ros2.messages import NS_PER_S, RosType
+from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.entities import Declared, undeclare
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.keys import SwarmKeys
@@ -91,7 +92,8 @@ class TopicFeed(Feed):
 
     def __init__(self, session: zenoh.Session, source: Ros2TopicSource,
                  node: FollowerNode) -> None:
-        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})")
+        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})",
+                         "`ros2 topic list` on the robot lists its topics")
         self._session, self._source, self._node = session, source, node
         self.type: RosType | None = None
         self._data_key = ""
@@ -101,13 +103,14 @@ class TopicFeed(Feed):
         self._data = session.declare_subscriber(
             topic_keys(source.domain, source.topic),
             zenoh.handlers.Callback(self._on_sample, indirect=False))
-        self._publishers = session.liveliness().declare_subscriber(
-            f"{ADMIN_SPACE}/{source.domain}/*/*/*/MP/*/*/*/{mangle(source.topic)}/*/*/*",
-            zenoh.handlers.Callback(self._on_publisher, indirect=False), history=True)
+        # Asked again faster until the type is known (``discovery``).
+        self._publishers = Discovery(
+            session, f"{ADMIN_SPACE}/{source.domain}/*/*/*/MP/*/*/*/{mangle(source.topic)}/*/*/*",
+            self._on_publisher, "ROS 2 publisher token", expecting=lambda: self.type is None)
 
-    def _on_publisher(self, sample: zenoh.Sample) -> None:
-        if sample.kind == zenoh.SampleKind.PUT:
-            parts = str(sample.key_expr).split("/")
+    def _on_publisher(self, key: str, alive: bool) -> None:
+        if alive:
+            parts = key.split("/")
             self._found_on(parts[-3], parts[-2], "a publisher's liveliness token")
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
@@ -146,7 +149,8 @@ class TopicFeed(Feed):
         return True
 
     def close(self) -> None:
-        undeclare(self._publishers, self._data)
+        self._publishers.close()
+        undeclare(self._data)
         with self._found:
             self._closed = True
             if self._token is not None:

@@ -8,7 +8,9 @@ generation time (never later than its arrival: a clock ahead must not make an up
 look fresher than it is), skips a sample older than one already offered (samples that
 overtook each other on the way: the queue must never hold an older update in place of a
 newer one), counts samples the follower cannot take (larger than its
-``max_update_bytes``) and says once that it is waiting for the first sample."""
+``max_update_bytes``), says once that it is waiting for the first sample, and warns once
+if none came within ``SILENT_AFTER`` seconds: the one line a user with a mistyped topic
+or key needs, at the default log level."""
 
 from __future__ import annotations
 
@@ -26,6 +28,7 @@ from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 
 log = logging.getLogger(__name__)
+SILENT_AFTER = 10.0  # seconds without a first sample before a warning names the source
 
 
 class SourceFeed(Protocol):
@@ -52,17 +55,27 @@ class Source(Protocol):
 
 
 class Feed:
-    """Offers one source's samples to ``node``; ``what`` names the source in the log."""
+    """Offers one source's samples to ``node``; ``what`` names the source in the log,
+    ``check`` says how a user checks its name if nothing comes."""
 
-    def __init__(self, node: FollowerNode, what: str,
+    def __init__(self, node: FollowerNode, what: str, check: str,
                  clock: Callable[[], float] = time.time) -> None:
-        self._node, self.what, self._clock = node, what, clock
+        self._node, self.what, self._check, self._clock = node, what, check, clock
         self.samples = 0  # offered to the queue (taken or dropped by it)
         self.oversized = 0  # larger than the follower takes: counted, logged once
         self.older = 0  # generated before the newest offered: skipped
         self._newest = -math.inf
         self._lock = threading.Lock()  # Zenoh may call a subscriber on several threads
         log.info("follower %s: waiting for the first sample of %s", node.follower_id, what)
+        self._silence = threading.Timer(SILENT_AFTER, self._still_silent)
+        self._silence.daemon = True
+        self._silence.start()
+
+    def _still_silent(self) -> None:
+        if self.samples == 0 and self.oversized == 0:
+            log.warning("follower %s: no sample of %s in %.0f s: is the name right? (%s; "
+                        "the leader polls this follower and gets nothing until one comes)",
+                        self._node.follower_id, self.what, SILENT_AFTER, self._check)
 
     def now(self) -> float:
         return self._clock()
@@ -93,6 +106,7 @@ class Feed:
                      self._node.follower_id, self.what, len(payload))
 
     def closed(self) -> None:
+        self._silence.cancel()
         log.info("follower %s: %d samples of %s offered, %d too large to serve, %d older "
                  "than one offered before", self._node.follower_id, self.samples, self.what,
                  self.oversized, self.older)
@@ -127,7 +141,8 @@ class KeyFeed(Feed):
     """A subscriber on a key expression, feeding a follower until ``close()``."""
 
     def __init__(self, session: zenoh.Session, key_expr: str, node: FollowerNode) -> None:
-        super().__init__(node, f"key {key_expr}")
+        super().__init__(node, f"key {key_expr}", "z_sub or zenoh-cli on this key shows "
+                         "what is published there")
         self._subscriber = session.declare_subscriber(
             key_expr, zenoh.handlers.Callback(self._on_sample, indirect=False))
 
