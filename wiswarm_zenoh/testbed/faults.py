@@ -43,6 +43,7 @@ class Output:
         self.name = name
         self.popen = popen
         self.lines: list[str] = []
+        self.times: list[float] = []  # when each line came (time.monotonic)
         self._cond = threading.Condition()
         self._reader = threading.Thread(target=self._read, daemon=True)
         self._reader.start()
@@ -52,7 +53,10 @@ class Output:
         for line in self.popen.stdout:
             with self._cond:
                 self.lines.append(ANSI.sub("", line.rstrip("\n")))
+                self.times.append(time.monotonic())
                 self._cond.notify_all()
+        with self._cond:  # the end of the output: nothing more will come
+            self._cond.notify_all()
 
     def _find(self, texts: Sequence[str]) -> str | None:
         return next((line for line in self.lines if all(t in line for t in texts)), None)
@@ -63,6 +67,18 @@ class Output:
             if not self._cond.wait_for(lambda: self._find(texts) is not None, timeout):
                 raise RuntimeError(f"{self.name} never said {texts!r}: {self.lines[-5:]}")
             return str(self._find(texts))
+
+    def when(self, text: str, timeout: float) -> float | None:
+        """When the first line holding ``text`` came (``time.monotonic``); None if none
+        came within ``timeout`` or before the output ended."""
+        def at() -> float | None:
+            return next((t for line, t in zip(self.lines, self.times, strict=True)
+                         if text in line), None)
+
+        with self._cond:
+            self._cond.wait_for(lambda: at() is not None or not self._reader.is_alive(),
+                                max(0.0, timeout))
+            return at()
 
     def read_to_end(self, timeout: float) -> None:
         """Wait until every line the process wrote is in ``lines`` (its output closed)."""
@@ -76,9 +92,10 @@ class Output:
 class Process(Output):
     """A ``wiswarm`` command started as a user would start it, and its output."""
 
-    def __init__(self, name: str, argv: Sequence[str], env: dict[str, str]) -> None:
+    def __init__(self, name: str, argv: Sequence[str], env: dict[str, str] | None = None,
+                 cwd: Path | None = None) -> None:
         super().__init__(name, subprocess.Popen(
-            [sys.executable, "-m", "wiswarm_zenoh.cli.main", *argv], env=env,
+            [sys.executable, "-m", "wiswarm_zenoh.cli.main", *argv], env=env, cwd=cwd,
             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True))
 
     def signal(self, signum: int) -> None:
