@@ -22,8 +22,9 @@ LOCAL_ROUTER = "tcp/127.0.0.1:7447"  # where ``wiswarm router`` listens by defau
 def parser(description: str) -> argparse.ArgumentParser:
     """An argument parser with the flags every example takes."""
     parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("-m", "--mode", choices=["peer", "client"], default="peer",
-                        help="the Zenoh session mode (default peer)")
+    parser.add_argument("-m", "--mode", choices=["peer", "client"],
+                        help="the Zenoh session mode (default: client of the router -e "
+                             "names; peer without -e, or with -l)")
     parser.add_argument("-e", "--connect", metavar="ENDPOINT", action="append",
                         help=f"endpoint to connect to (repeatable; default {LOCAL_ROUTER})")
     parser.add_argument("-l", "--listen", metavar="ENDPOINT", action="append",
@@ -40,7 +41,8 @@ def open_session(args: argparse.Namespace) -> zenoh.Session:
     """A Zenoh session as the flags say."""
     zenoh.init_log_from_env_or("error")
     config = zenoh.Config()
-    config.insert_json5("mode", json.dumps(args.mode))
+    attached = args.connect and not args.listen  # as wiswarm's own nodes decide
+    config.insert_json5("mode", json.dumps(args.mode or ("client" if attached else "peer")))
     config.insert_json5("connect/endpoints", json.dumps(args.connect or [LOCAL_ROUTER]))
     if args.listen:
         config.insert_json5("listen/endpoints", json.dumps(args.listen))

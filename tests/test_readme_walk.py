@@ -224,6 +224,25 @@ def test_no_router_where_the_leader_is_pointed_is_named_in_one_line(tmp_path: Pa
     assert leader.finish() == 1  # and at its end, that none ever was
 
 
+def test_a_client_started_before_its_router_waits_for_it_and_joins() -> None:
+    """Given -e, a node is a client, which Zenoh opens only once its router answers:
+    started first (robots and ground boot in any order), it waits, says so once, and
+    joins when the router comes."""
+    port = free_tcp_port()
+    with nodes() as started:
+        follower = Node(["follower", "--swarm", "late", "--id", "uav1", *_endpoint(port)])
+        started.append(follower)
+        follower.wait_for("no router reached", f"tcp/127.0.0.1:{port}")
+        assert not follower.said("Ctrl-C to stop")  # still waiting at its open
+        started.append(Node(["router", *_listen(port)]))
+        follower.wait_for("router reached, after")
+        follower.wait_for("Ctrl-C to stop")
+        leader = Node(["-v", "leader", "--swarm", "late", *_endpoint(port)])
+        started.append(leader)
+        leader.wait_for("follower uav1 joined")
+    assert not any("Traceback" in line for node in started for line in node.lines)
+
+
 @pytest.mark.parametrize("system", ["wiswarm", "push"])
 def test_a_follower_that_never_reached_a_router_says_so_and_fails(system: str) -> None:
     port = free_tcp_port()  # nothing listens there

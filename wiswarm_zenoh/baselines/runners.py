@@ -27,6 +27,9 @@ from wiswarm_zenoh.programs.runners import (
     DeliveryRecord,
     ReadySignal,
     StopSignal,
+    deadline_of,
+    open_node_session,
+    time_left,
     wait_until_stopped,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
@@ -102,10 +105,12 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
     the end if one of them never reached the router it was pointed at."""
     keys = SwarmKeys(options.swarm)
     watches = RouterWatches(spec.routers())
+    deadline = deadline_of(options.duration)
     with ExitStack() as stack:
         feeds: list[tuple[str, FifoSender, SyntheticFrames]] = []
         for follower in options.follower_ids:
-            session = stack.enter_context(spec.open())
+            session = stack.enter_context(open_node_session(spec, f"follower {follower}",
+                                                            stop, deadline))
             watches.add(session, f"follower {follower}")
             stack.enter_context(session.liveliness().declare_token(keys.member(follower)))
             sender = _open_sender(session, options, follower)
@@ -117,7 +122,7 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
             stack.callback(frames.stop)
         if ready is not None:
             ready.set()
-        wait_until_stopped(stop, options.duration, watches.check)
+        wait_until_stopped(stop, time_left(deadline), watches.check)
         reached = watches.finish()
         for follower, sender, _ in feeds:
             log.info("%s: %d frames offered, %d sent, %d dropped by the full FIFO", follower,
@@ -151,9 +156,12 @@ def run_receiver(spec: SessionSpec, options: ReceiverOptions, stop: StopSignal,
     second. Returns the (closed) receiver, whose last stats remain readable;
     ``NoRouterReached`` instead if it never reached the router it was pointed at."""
     record = DeliveryRecord(options.record) if options.record else None
+    deadline = deadline_of(options.duration)
     try:
-        with spec.open() as session, Receiver(session, options.swarm, options.system,
-                                              options.bind, record=record) as receiver:
+        with open_node_session(spec, f"{options.system} receiver of {options.swarm!r}", stop,
+                               deadline) as session, \
+                Receiver(session, options.swarm, options.system, options.bind,
+                         record=record) as receiver:
             watch = RouterWatch(session, f"{options.system} receiver of {options.swarm!r}",
                                 spec.routers())
             if ready is not None:
@@ -164,7 +172,7 @@ def run_receiver(spec: SessionSpec, options: ReceiverOptions, stop: StopSignal,
                 if show is not None:
                     show(receiver)
 
-            wait_until_stopped(stop, options.duration, tick)
+            wait_until_stopped(stop, time_left(deadline), tick)
             reached = watch.finish()
     finally:
         if record is not None:

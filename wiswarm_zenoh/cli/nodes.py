@@ -6,7 +6,8 @@ which publishes the same stats as the polling leader.
 
 Zenoh flags follow zenoh-python's examples (-m/-e/-l/-c/--cfg/--no-multicast-scouting).
 Without -e or -c, leader and follower connect to a router on this machine
-(``wiswarm router``, tcp/127.0.0.1:7447) as peers.
+(``wiswarm router``, tcp/127.0.0.1:7447) as peers; given -e (and no -l), they are
+clients of the router it names (``zenoh_config.ATTACHED_MODE`` says why).
 """
 
 from __future__ import annotations

@@ -267,7 +267,10 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -
     """The session flags: -m/-e/-l/-c, --cfg KEY:VALUE, --no-multicast-scouting,
     --shared-memory."""
     group = parser.add_argument_group("zenoh session")
-    group.add_argument("-m", "--mode", choices=list(modes), help="the Zenoh session mode")
+    group.add_argument("-m", "--mode", choices=list(modes),
+                       help="the Zenoh session mode (default router)" if "router" in modes
+                       else "the Zenoh session mode (default: a client of the router -e "
+                            "names; a peer without -e, or with -l)")
     group.add_argument("-e", "--connect", metavar="ENDPOINT", action="append", default=[],
                        type=CONNECT_ENDPOINT,
                        help="endpoint to connect to, e.g. tcp/HOST:7447 (repeatable; "

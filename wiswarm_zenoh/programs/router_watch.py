@@ -28,6 +28,20 @@ class NoRouterReached(Exception):
     """A node pointed at a router ended without ever reaching one (already logged)."""
 
 
+def say_unreached(node: str, endpoints: Sequence[str], waited: float) -> None:
+    log.warning("%s: no router reached at %s after %.0f s: is one listening there "
+                "(wiswarm router -l ...)? A TLS router takes tls/HOST:PORT and this node's "
+                "config from wiswarm security. Still trying", node, ", ".join(endpoints),
+                waited)
+
+
+def say_never_reached(node: str, endpoints: Sequence[str], waited: float) -> None:
+    log.error("%s: no router was ever reached at %s in %.0f s: nothing was exchanged. Is "
+              "one listening there (wiswarm router -l ...)? A TLS router takes "
+              "tls/HOST:PORT and this node's config from wiswarm security", node,
+              ", ".join(endpoints), waited)
+
+
 class RouterWatch:
     """Logs the moment ``session`` has no router any more, and when it has one again."""
 
@@ -81,11 +95,7 @@ class RouterWatch:
         elif not reached and self._endpoints and not self._unreached_said \
                 and waited >= STARTUP_GRACE:
             self._unreached_said = True
-            where = ", ".join(self._endpoints)
-            log.warning("%s: no router reached at %s after %.0f s: is one listening there "
-                        "(wiswarm router -l ...)? A TLS router takes tls/HOST:PORT and this "
-                        "node's config from wiswarm security. Still trying", self._node,
-                        where, waited)
+            say_unreached(self._node, self._endpoints, waited)
 
     def finish(self) -> bool:
         """At the node's end, before its session closes: False, said in one line, if it
@@ -93,10 +103,7 @@ class RouterWatch:
         self._reached = self._reached or self._anyone(self._routers())
         if self._reached or not self._endpoints:
             return True
-        log.error("%s: no router was ever reached at %s in %.0f s: nothing was exchanged. "
-                  "Is one listening there (wiswarm router -l ...)? A TLS router takes "
-                  "tls/HOST:PORT and this node's config from wiswarm security", self._node,
-                  ", ".join(self._endpoints), time.monotonic() - self._started)
+        say_never_reached(self._node, self._endpoints, time.monotonic() - self._started)
         return False
 
 

@@ -32,7 +32,14 @@ from wiswarm_zenoh.programs.frames import (
     capture_time,
 )
 from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
-from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
+from wiswarm_zenoh.programs.router_watch import (
+    STARTUP_GRACE,
+    NoRouterReached,
+    RouterWatch,
+    RouterWatches,
+    say_never_reached,
+    say_unreached,
+)
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
 from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.ros2.waypoints import WaypointsPublisher
@@ -87,6 +94,53 @@ def wait_until_stopped(stop: StopSignal, duration: float | None = None,
                 tick()
     except KeyboardInterrupt:
         log.info("interrupted: stopping")
+
+
+def deadline_of(duration: float | None) -> float | None:
+    """When a run of ``duration`` seconds started now ends (``time.monotonic``)."""
+    return None if duration is None else time.monotonic() + duration
+
+
+def open_node_session(spec: SessionSpec, node: str, stop: StopSignal,
+                      deadline: float | None) -> zenoh.Session:
+    """``spec.open()``, for a node that must not depend on the order things start in: a
+    client (which Zenoh opens only once its router answers) waits for its router, trying
+    again, as a peer does; it says so once after ``STARTUP_GRACE``, and if ``stop``,
+    ``deadline`` (``time.monotonic``) or Ctrl-C comes first, says so in one line and
+    raises ``NoRouterReached``. (The open goes on in a thread, so that Ctrl-C is heard.)"""
+    if not spec.waits_for_router():
+        return spec.open()
+    opened: list[zenoh.Session | BaseException] = []
+    done = threading.Event()
+
+    def attempt() -> None:
+        try:
+            opened.append(spec.open(wait_for_router=True))
+        except BaseException as exc:  # handed to the caller as it is
+            opened.append(exc)
+        done.set()
+
+    threading.Thread(target=attempt, name=f"open {node}", daemon=True).start()
+    started, said, endpoints = time.monotonic(), False, spec.routers()
+    while not done.wait(SUPERVISION_PERIOD):
+        waited = time.monotonic() - started
+        if stop.is_set() or (deadline is not None and time.monotonic() >= deadline):
+            say_never_reached(node, endpoints, waited)
+            raise NoRouterReached
+        if not said and waited >= STARTUP_GRACE:
+            said = True
+            say_unreached(node, endpoints, waited)
+    result = opened[0]
+    if isinstance(result, BaseException):
+        raise result
+    if said:
+        log.warning("%s: router reached, after %.1f s", node, time.monotonic() - started)
+    return result
+
+
+def time_left(deadline: float | None) -> float | None:
+    """Seconds to ``deadline`` (None: no end)."""
+    return None if deadline is None else max(0.0, deadline - time.monotonic())
 
 
 def _interrupt(signum: int, frame: FrameType | None) -> None:
@@ -186,12 +240,14 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     the first follower's ``duration``; ``NoRouterReached`` at the end if one of them
     never reached the router it was pointed at."""
     watches = RouterWatches(spec.routers())
+    deadline = deadline_of(options[0].duration if options else None)
     with contextlib.ExitStack() as stack:
         feeds = []
         for option in options:
             own = spec if option.config_file is None else replace(
                 spec, config_file=option.config_file)
-            session = stack.enter_context(own.open())
+            session = stack.enter_context(open_node_session(
+                own, f"follower {option.follower_id}", stop, deadline))
             watches.add(session, f"follower {option.follower_id}")
             waypoints = None if option.waypoints_topic is None else WaypointsPublisher(
                 session, option.follower_id, option.waypoints_topic, option.ros_domain)
@@ -209,7 +265,7 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
         if ready is not None:
             ready.set()
 
-        wait_until_stopped(stop, options[0].duration if options else None, watches.check)
+        wait_until_stopped(stop, time_left(deadline), watches.check)
         reached = watches.finish()
         for option, node, frames in feeds:
             log.info("follower %s: %d %s offered, %d polls answered", option.follower_id,
@@ -273,8 +329,10 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
     instead if it never reached the router it was pointed at."""
     record = (DeliveryRecord(options.record, options.record_capture_stamps)
               if options.record else None)
+    deadline = deadline_of(options.duration)
     try:
-        with spec.open() as session, _edge(session, options) as upstream:
+        with open_node_session(spec, f"leader of {options.swarm!r}", stop, deadline) \
+                as session, _edge(session, options) as upstream:
             hand_on: list[Callable[[Delivered], None]] = [] if record is None else [record]
             if upstream is not None:
                 hand_on.append(upstream.on_delivery)
@@ -293,7 +351,8 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 every_record=show is not None or options.stats_file is not None)
             if upstream is not None:
                 upstream.set_control = node.set_control
-            reached = _lead(node, session, spec.routers(), options, stop, ready, show)
+            reached = _lead(node, session, spec.routers(), options, stop, ready, show,
+                            deadline)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
@@ -321,7 +380,7 @@ def _edge(session: zenoh.Session, options: LeaderOptions) -> Iterator[Upstream |
 
 def _lead(node: Leader, session: zenoh.Session, endpoints: Sequence[str],
           options: LeaderOptions, stop: StopSignal, ready: ReadySignal | None,
-          show: Callable[[Leader], None] | None) -> bool:
+          show: Callable[[Leader], None] | None, deadline: float | None) -> bool:
     """Run ``node`` until stopped; ``show`` it a few times a second. False if it never
     reached the router at ``endpoints`` (said in one line)."""
     with node:
@@ -334,5 +393,5 @@ def _lead(node: Leader, session: zenoh.Session, endpoints: Sequence[str],
             if show is not None:
                 show(node)
 
-        wait_until_stopped(stop, options.duration, tick)
+        wait_until_stopped(stop, time_left(deadline), tick)
         return watch.finish()

@@ -30,6 +30,12 @@ from wiswarm_zenoh.transport import shm_sweep
 from wiswarm_zenoh.usage import UsageError
 
 MODES = ("peer", "client", "router")
+# The mode of a node given a router by -e (and nothing to listen on): a client, as Zenoh
+# advises for a node attached to a router. In peer mode, a peer that reaches another
+# both directly and through routers can miss its liveliness tokens (issue 40,
+# bench_liveliness_answers, bench_discovery); a client's router answers for all, and
+# robots' links stay through their own routers (docs/guides/swarm.md#session-modes).
+ATTACHED_MODE = "client"
 LOCAL_ROUTER = "tcp/127.0.0.1:7447"
 # The link protocols of this zenoh-python build that a session can use (unixpipe, vsock
 # and serial are not compiled in: Zenoh says "Unicast not supported" at open).
@@ -123,10 +129,13 @@ class SessionSpec:
     def from_args(cls, args: argparse.Namespace, default_mode: str,
                   default_connect: Sequence[str] = ()) -> SessionSpec:
         """The parsed flags; ``default_connect`` applies only when neither ``--connect``
-        nor ``--config`` says where to go."""
+        nor ``--config`` says where to go. A node (``default_mode`` peer) given ``-e``
+        and no ``-l`` is a client of the router it names (``attached_mode``)."""
         connect = list(args.connect)
         if not connect and args.config is None:
             connect = list(default_connect)
+        if default_mode == "peer" and args.connect and not args.listen:
+            default_mode = ATTACHED_MODE
         return cls(
             mode=args.mode or (None if args.config else default_mode),
             connect=tuple(connect), listen=tuple(args.listen), config_file=args.config,
@@ -168,11 +177,22 @@ class SessionSpec:
             return [str(e) for each in endpoints.values() for e in each]
         return [str(e) for e in endpoints]
 
-    def open(self) -> zenoh.Session:
-        """Open a session; a failure (endpoint in use, router unreachable) is a UsageError.
-        With shared memory on, what this process leaves in /dev/shm is swept once it ends
-        (``shm_sweep``)."""
+    def waits_for_router(self) -> bool:
+        """Whether ``open(wait_for_router=True)`` waits: a client (which Zenoh opens only
+        once a router answers) whose config leaves ``connect/timeout_ms`` to us."""
         config = self.config()
+        mode: str = config.get_json("mode")
+        timeout: str = config.get_json("connect/timeout_ms")
+        return mode == '"client"' and timeout == "null"
+
+    def open(self, wait_for_router: bool = False) -> zenoh.Session:
+        """Open a session; a failure (endpoint in use, router unreachable) is a UsageError.
+        ``wait_for_router`` (see ``waits_for_router``): a client waits at open for its
+        router, trying again as ``RECONNECT`` says, instead of failing. With shared memory
+        on, what this process leaves in /dev/shm is swept once it ends (``shm_sweep``)."""
+        config = self.config()
+        if wait_for_router and self.waits_for_router():
+            _insert(config, "connect/timeout_ms", "{client: -1}", "waiting for the router")
         if config.get_json(SHARED_MEMORY) == "true":
             shm_sweep.watch()
         try:
