@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -116,3 +117,31 @@ def test_every_example_is_run_here() -> None:
     source = Path(__file__).read_text()
     scripts = {p.name for p in EXAMPLES.glob("*.py")} - {"common.py"}
     assert scripts == set(re.findall(r'Example\("(\w+\.py)"', source))
+
+
+def test_the_camera_is_taken_by_a_follower_as_a_ros2_topic(port: int) -> None:
+    """The camera stands in for a robot's: a ``--ros2-topic`` follower finds its type
+    from its tokens and serves its frames."""
+    from wiswarm_zenoh import Follower
+    from wiswarm_zenoh.ros2 import Ros2TopicSource
+
+    topic = "/drone9/camera/image_raw/compressed"
+    camera = Example("camera_ros2.py", port, "--topic", topic, "--rate", "50",
+                     "--bytes", "2000")
+    robot = SessionSpec.loopback("peer", connect_ports=[port]).open()
+    follower = Follower(robot, "examples", "d9", source=Ros2TopicSource(topic))
+    try:
+        camera.wait_for(r"^camera /drone9/camera: 2000-byte frames at 50 Hz")
+        feed = follower.source
+        assert feed is not None
+        deadline = time.monotonic() + WAIT
+        while feed.samples < 5:  # a counter no callback announces
+            assert time.monotonic() < deadline, "the follower served no frame"
+            time.sleep(0.01)
+        assert feed.type is not None and feed.type.name == "sensor_msgs/msg/CompressedImage"
+        camera.stop()
+        assert re.search(r"^[1-9]\d* frames taken$", camera.lines[-1])
+    finally:
+        follower.close()
+        robot.close()
+        stopped(camera)

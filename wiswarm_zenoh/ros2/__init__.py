@@ -21,6 +21,8 @@ from wiswarm_zenoh.ros2.messages import header as header
 from wiswarm_zenoh.ros2.messages import message_class as message_class
 from wiswarm_zenoh.ros2.messages import ros_type as ros_type
 from wiswarm_zenoh.ros2.messages import yaw_quaternion as yaw_quaternion
+from wiswarm_zenoh.ros2.node import Ros2Node as Ros2Node
+from wiswarm_zenoh.ros2.node import Ros2Publisher as Ros2Publisher
 from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource as Ros2TopicSource
 from wiswarm_zenoh.ros2.waypoints import WaypointsPublisher as WaypointsPublisher
 from wiswarm_zenoh.ros2.waypoints import waypoints_path as waypoints_path

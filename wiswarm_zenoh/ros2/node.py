@@ -6,6 +6,7 @@ what they cannot take."""
 
 from __future__ import annotations
 
+import logging
 import os
 import threading
 import time
@@ -26,6 +27,7 @@ from wiswarm_zenoh.ros2.messages import (
 from wiswarm_zenoh.transport import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 
+log = logging.getLogger(__name__)
 CDR = zenoh.Encoding("application/cdr")
 MAX_MESSAGE_BYTES = 1 << 20  # larger input is refused before it is decoded
 
@@ -105,13 +107,14 @@ class Ros2Subscription:
 
 class Ros2Node:
     """A node ``namespace``/``name`` on ``domain``, until ``close()`` (which undeclares
-    its publishers and subscriptions too)."""
+    its publishers and subscriptions too). What its subscriptions cannot take is counted
+    in ``bad_input`` (default: one of this module's logger)."""
 
     def __init__(self, session: zenoh.Session, name: str, namespace: str, domain: int,
-                 bad_input: BadInputLog) -> None:
+                 bad_input: BadInputLog | None = None) -> None:
         self._session = session
         self.name = NodeName(domain, str(session.info.zid()), 0, namespace, name)
-        self.bad_input = bad_input
+        self.bad_input = BadInputLog(log) if bad_input is None else bad_input
         self._entities = ExitStack()
         self._lock = threading.Lock()
         self._next_id = 1  # rmw_zenoh numbers a context's entities; the node is 0
