@@ -118,7 +118,7 @@ def _spoil(directory: Path, case: str) -> None:
 
 @pytest.mark.parametrize(("case", "argv", "message"), [
     ("none", ["follower", "--id", "f9", "-c", "{d}/f1.json5"],
-     "certificate {d}/f1.pem (in {d}/f1.json5) is 'f1''s, not 'f9''s"),
+     "certificate {d}/f1.pem (in {d}/f1.json5) is f1's, not f9's"),
     ("none", ["follower", "--id", "f9", "-c", "{d}/f9.json5"],
      "config file {d}/f9.json5: no such file"),
     ("missing certificate", ["follower", "--id", "f1", "-c", "{d}/f1.json5"],

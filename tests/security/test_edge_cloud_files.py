@@ -184,5 +184,5 @@ def test_a_leader_whose_rules_do_not_cover_its_upstream_is_one_line(
 
 def test_a_site_followers_certificate_is_its_own_and_no_other_sites(pki_dir: Path) -> None:
     check_identity(str(pki_dir / "s1" / "uav1.json5"), "uav1")
-    with pytest.raises(UsageError, match="is 's1/uav1''s, not 'uav2''s"):
+    with pytest.raises(UsageError, match="is s1/uav1's, not uav2's"):
         check_identity(str(pki_dir / "s1" / "uav1.json5"), "uav2")

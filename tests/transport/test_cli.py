@@ -62,6 +62,24 @@ def test_argparse_errors_exit_2(wiswarm: object, capsys: pytest.CaptureFixture[s
     assert capsys.readouterr().err.count("\n") == 1
 
 
+@pytest.mark.parametrize(("flag", "first", "second", "why"), [
+    ("--ros2-topic", "/a", "/b", "one follower serves one topic; run a follower per topic"),
+    ("--source", "robot/a", "robot/b",
+     "one follower serves one source; run a follower per source"),
+    ("--ros2-waypoints", "/a/path", "/b/path", "a follower publishes its waypoints on one topic"),
+])
+def test_a_follower_flag_given_twice_is_one_line_and_exit_2(flag: str, first: str,
+                                                            second: str, why: str) -> None:
+    """Not the last one served silently: argparse's default for a repeated flag."""
+    wiswarm = Path(sys.executable).with_name("wiswarm")
+    done = subprocess.run([str(wiswarm), "follower", "--id", "d1", flag, first, flag, second],
+                          capture_output=True, text=True, timeout=WAIT)
+    assert done.returncode == 2
+    said = f"wiswarm follower: error: {flag} given twice ({first}, {second}): {why}\n"
+    assert done.stderr == said
+    assert done.stdout == ""
+
+
 def test_an_unreachable_router_is_a_usage_error(
     wiswarm: object, capsys: pytest.CaptureFixture[str]
 ) -> None:

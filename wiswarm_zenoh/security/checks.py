@@ -115,8 +115,8 @@ def check_identity(config_file: str | None, name: str) -> None:
 
     if cert is not None and common_name(cert).rpartition("/")[2] != name:
         path = tls_files(config)["connect_certificate"]
-        raise UsageError(f"certificate {path} (in {config_file}) is {common_name(cert)!r}'s, "
-                         f"not {name!r}'s: use {name}'s config, or "
+        raise UsageError(f"certificate {path} (in {config_file}) is {common_name(cert)}'s, "
+                         f"not {name}'s: use {name}'s config, or "
                          f"`wiswarm security add-follower` to make one")
 
 
@@ -154,6 +154,6 @@ def check_upstream(config_file: str | None, upstream: str | None, site: str) -> 
         raise UsageError(f"{config_file} was written for a leader with no swarm upstream, "
                          f"whose rules let it serve none: leave out --upstream")
     if written is not None and (upstream, site) != (written, swarm):
-        raise UsageError(f"{config_file} was written for site {swarm!r}'s edge leader under "
+        raise UsageError(f"{config_file} was written for the edge leader of site {swarm!r} under "
                          f"{written!r}, whose rules let it serve {written!r} as {swarm!r} "
                          f"only: pass --upstream {written} (and no other --site)")
