@@ -133,7 +133,7 @@ class Discovery:
 
     def _apply(self, ticket: int, keys: set[str]) -> None:
         with self._lock:
-            changes = self._table.answered(ticket, keys)
+            changes = self._table.answered(ticket, keys, self._clock())
             for key in changes.came:
                 self.found_by_answer += 1
                 log.info("%s %s found by asking again: the liveliness watch had missed it "
@@ -141,8 +141,8 @@ class Discovery:
                          self._what, key)
                 self._on_change(key, True)
             for key in changes.went:
-                log.info("%s %s gone: %d answers in a row lacked it (the watch never saw "
-                         "it come or go)", self._what, key, self._table.drop_after)
+                log.info("%s %s gone: answers lacked it for %.0f s (the watch never saw it "
+                         "come or go)", self._what, key, self._table.drop_seconds)
                 self._on_change(key, False)
 
     def close(self) -> None:

@@ -8,15 +8,17 @@ can lack a token that is there, and then it never hears of it; a liveliness get 
 answer) can lack a token that is there too, about one answer in five on a busy host.
 So: what the watch saw come stands until the watch sees it go; answers add what the
 watch missed, and take away only what answers alone gave, once ``drop_after`` answers in
-a row lack it (at one answer in five lacking a token that is there, four in a row come
-once in 600 answers: at an answer every 0.4 s, once in four minutes, against every 13 s
-for two). A token the watch saw go is not brought back by an answer asked before it
-went (a stale one), only by ``confirm`` answers in a row asked after it that hold it
-(a follower that came back while the watch missed it again); once an answer asked after
-it lacks it too, it is forgotten, and a later answer holding it is news as any other.
-An answer that lacks a token the watch holds is known to be short: it brings what it
-holds, but proves nothing gone (in peer mode, most answers at N = 1000 held none or
-part of the tokens, bench_liveliness_answers).
+a row, spanning at least ``drop_seconds``, lack it. In peer mode most answers can be
+short, and four asked a tenth of a second apart prove little (a loaded testbed run,
+where a follower started again got 3 deliveries against its neighbour's 181, most likely
+lost it so); a token truly gone is only polled in vain a little longer. An answer that
+lacks a token the watch holds is known to be short: it brings what it holds, but proves
+nothing gone (in peer mode, most answers at N = 1000 held none or part of the tokens,
+bench_liveliness_answers). A token the watch saw go is not brought back by an answer
+asked before it went (a stale one), only by ``confirm`` answers in a row asked after it
+that hold it (a follower that came back while the watch missed it again); once an
+answer asked after it lacks it too, it is forgotten, and a later answer holding it is
+news as any other.
 """
 
 from __future__ import annotations
@@ -24,7 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 CONFIRM = 2  # answers in a row that bring back a token the watch saw go
-DROP_AFTER = 4  # answers in a row that take away a token answers alone gave
+DROP_AFTER = 4  # answers in a row that take away a token answers alone gave,
+DROP_SECONDS = 2.0  # and the time they must span at least
 
 
 @dataclass
@@ -42,9 +45,10 @@ class TokenTable:
 
     confirm: int = CONFIRM
     drop_after: int = DROP_AFTER
+    drop_seconds: float = DROP_SECONDS
     _watched: set[str] = field(default_factory=set)  # the watch saw come, not go
-    _answered: dict[str, int] = field(default_factory=dict)  # answers alone gave: answers
-    # in a row that lacked it since
+    _answered: dict[str, tuple[int, float]] = field(default_factory=dict)  # answers alone
+    # gave: (answers in a row that lacked it since, when the first of them came)
     _went: dict[str, tuple[int, int]] = field(default_factory=dict)  # the watch saw go,
     # no answer since lacked it: (tickets issued by then, answers after that held it)
     _tickets: int = 0
@@ -76,9 +80,10 @@ class TokenTable:
         self._tickets += 1
         return self._tickets
 
-    def answered(self, ticket: int, keys: set[str]) -> Changes:
+    def answered(self, ticket: int, keys: set[str], now: float) -> Changes:
         """A whole answer (one that timed out says nothing: do not pass it) asked with
-        ``ticket``: the tokens it brought and the ones it showed gone."""
+        ``ticket`` and come at ``now``: the tokens it brought and the ones it showed
+        gone."""
         changes = Changes()
         whole = self._watched <= keys
         for key in sorted(keys - self._watched - set(self._answered)):
@@ -91,18 +96,21 @@ class TokenTable:
                     self._went[key] = (issued, held + 1)
                     continue
                 del self._went[key]
-            self._answered[key] = 0
+            self._answered[key] = (0, now)
             changes.came.append(key)
         for key in self._answered.keys() & keys:
-            self._answered[key] = 0
+            self._answered[key] = (0, now)
         if not whole:
             return changes
         for key, (issued, _) in list(self._went.items()):
             if key not in keys and ticket > issued:
                 del self._went[key]  # gone by both: a later answer holding it is news
         for key in sorted(set(self._answered) - keys):
-            self._answered[key] += 1
-            if self._answered[key] >= self.drop_after:
+            lacked, since = self._answered[key]
+            since = now if lacked == 0 else since
+            if lacked + 1 >= self.drop_after and now - since >= self.drop_seconds:
                 del self._answered[key]
                 changes.went.append(key)
+            else:
+                self._answered[key] = (lacked + 1, since)
         return changes
