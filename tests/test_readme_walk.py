@@ -240,7 +240,8 @@ def test_a_client_started_before_its_router_waits_for_it_and_joins() -> None:
         leader = Node(["-v", "leader", "--swarm", "late", *_endpoint(port)])
         started.append(leader)
         leader.wait_for("follower uav1 joined")
-    assert not any("Traceback" in line for node in started for line in node.lines)
+    for node in started:
+        assert not any("Traceback" in line for line in node.lines), "\n".join(node.lines)
 
 
 @pytest.mark.parametrize("system", ["wiswarm", "push"])

@@ -349,10 +349,11 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_role=None if upstream is None else upstream.on_role,
                 name=options.name, bridge=options.bridge,
                 every_record=show is not None or options.stats_file is not None)
-            if upstream is not None:
-                upstream.set_control = node.set_control
-            reached = _lead(node, session, spec.routers(), options, stop, ready, show,
-                            deadline)
+            with node:  # at once: a Ctrl-C from here on still closes it before the session
+                if upstream is not None:
+                    upstream.set_control = node.set_control
+                reached = _lead(node, session, spec.routers(), options, stop, ready, show,
+                                deadline)
         if options.stats_file is not None:
             Path(options.stats_file).write_text(json.dumps(
                 {"leader": node.summary.as_dict(),
@@ -383,15 +384,14 @@ def _lead(node: Leader, session: zenoh.Session, endpoints: Sequence[str],
           show: Callable[[Leader], None] | None, deadline: float | None) -> bool:
     """Run ``node`` until stopped; ``show`` it a few times a second. False if it never
     reached the router at ``endpoints`` (said in one line)."""
-    with node:
-        if ready is not None:
-            ready.set()
-        watch = RouterWatch(session, f"leader of {options.swarm!r}", endpoints)
+    if ready is not None:
+        ready.set()
+    watch = RouterWatch(session, f"leader of {options.swarm!r}", endpoints)
 
-        def tick() -> None:
-            watch.check()
-            if show is not None:
-                show(node)
+    def tick() -> None:
+        watch.check()
+        if show is not None:
+            show(node)
 
-        wait_until_stopped(stop, time_left(deadline), tick)
-        return watch.finish()
+    wait_until_stopped(stop, time_left(deadline), tick)
+    return watch.finish()
