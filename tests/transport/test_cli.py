@@ -192,3 +192,17 @@ def test_a_router_with_nobody_to_scout_skips_zenohs_scouting_delay(spec: Session
 def test_the_shipped_zenoh_configs_load(mode: str) -> None:
     config = SessionSpec(config_file=str(CONFIGS / f"{mode}.json5")).config()
     assert config.get_json("mode") == f'"{mode}"'
+
+
+def test_a_watching_tool_with_no_router_at_e_says_so_in_one_line(tmp_path: Path) -> None:
+    """``record`` given -e is a client: no router there, one line naming it, exit 2."""
+    port = free_tcp_port()
+    wiswarm = Path(sys.executable).with_name("wiswarm")
+    done = subprocess.run([str(wiswarm), "record", "-o", str(tmp_path / "run.mcap"), "-e",
+                           f"tcp/127.0.0.1:{port}", "--no-multicast-scouting", "--duration",
+                           "1"], capture_output=True, text=True, timeout=WAIT)
+    assert done.returncode == 2
+    assert done.stderr == (f"wiswarm record: error: cannot open the Zenoh session: no router "
+                           f"answered at tcp/127.0.0.1:{port} (a client opens only once its "
+                           "router answers): is one listening there (wiswarm router -l "
+                           "...)?\n")

@@ -198,7 +198,12 @@ class SessionSpec:
         try:
             return zenoh.open(config)
         except zenoh.ZError as exc:
-            raise UsageError(f"cannot open the Zenoh session: {zenoh_message(exc)}") from None
+            message = zenoh_message(exc)
+            if message.startswith("Unable to connect to any of"):  # a client, no router
+                message = (f"no router answered at {', '.join(self.routers())} (a client "
+                           "opens only once its router answers): is one listening there "
+                           "(wiswarm router -l ...)?")
+            raise UsageError(f"cannot open the Zenoh session: {message}") from None
 
 
 def _insert(config: zenoh.Config, key: str, value: str, origin: str) -> None:
