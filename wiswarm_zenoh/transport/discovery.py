@@ -50,23 +50,22 @@ REPLY_CAPACITY = 1 << 16
 class Discovery:
     """The tokens under ``key_expr`` on ``session``, told to ``on_change`` as they come
     and go, until ``close()``; ``what`` names them in the log (``"follower token"``).
-    ``period`` may be changed at any time (a benchmark turns the asking off with a
-    large one); ``reasks`` and ``found_by_answer`` count what asking did."""
+    ``period`` (default ``PERIOD``) may be changed at any time (a benchmark turns the
+    asking off with a large one); ``reasks`` and ``found_by_answer`` count what asking did."""
 
     def __init__(self, session: zenoh.Session, key_expr: str,
                  on_change: Callable[[str, bool], object], what: str, *,
-                 period: float = PERIOD, expecting: Callable[[], bool] = lambda: False,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+                 expecting: Callable[[], bool] = lambda: False) -> None:
         self._liveliness = session.liveliness()
         self._key_expr, self._on_change, self._what = key_expr, on_change, what
-        self._period, self._expecting, self._clock = period, expecting, clock
+        self._period, self._expecting = PERIOD, expecting
         self._table = TokenTable()
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._wake = threading.Event()  # the pace changed, or close: look again
         self.reasks = 0  # answers asked for after the watch's start
         self.found_by_answer = 0  # tokens an answer brought that the watch had missed
-        self._started = clock()
+        self._started = time.monotonic()
         self._watch = self._liveliness.declare_subscriber(
             key_expr, zenoh.handlers.Callback(self._on_sample, indirect=False), history=True)
         self._thread = threading.Thread(target=self._run, name=f"discovery {key_expr}",
@@ -81,12 +80,6 @@ class Discovery:
     def period(self, seconds: float) -> None:
         self._period = seconds
         self._wake.set()
-
-    @property
-    def present(self) -> set[str]:
-        """The tokens there now (a copy)."""
-        with self._lock:
-            return self._table.present
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key, alive = str(sample.key_expr), sample.kind == zenoh.SampleKind.PUT
@@ -106,7 +99,7 @@ class Discovery:
         token is awaited, each at least ``PER_TOKEN`` per token there (a quarter of it
         when fast)."""
         tokens = len(self._table)
-        if self._clock() - self._started < STARTING or self._expecting():
+        if time.monotonic() - self._started < STARTING or self._expecting():
             return min(max(FAST_PERIOD, tokens * PER_TOKEN / 4), self._period)
         return max(self._period, tokens * PER_TOKEN)
 
@@ -133,7 +126,7 @@ class Discovery:
 
     def _apply(self, ticket: int, keys: set[str]) -> None:
         with self._lock:
-            changes = self._table.answered(ticket, keys, self._clock())
+            changes = self._table.answered(ticket, keys, time.monotonic())
             for key in changes.came:
                 self.found_by_answer += 1
                 log.info("%s %s found by asking again: the liveliness watch had missed it "
