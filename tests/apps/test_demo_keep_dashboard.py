@@ -11,9 +11,6 @@ import asyncio
 import json
 import re
 import signal
-import subprocess
-import sys
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -21,60 +18,27 @@ from typing import Any
 import aiohttp
 import pytest
 
+from wiswarm_zenoh.testbed.faults import Process
+
 WAIT = 45.0  # seconds for both runs to end and the pages to be announced (about 10 s)
 SERVING = re.compile(r"^dashboards of the finished runs: wiswarm (http://\S+/), "
                      r"push (http://\S+/) \(Ctrl-C to stop\)$")
 
 
-class Demo:
-    """``wiswarm demo`` as a user starts it, its output gathered line by line."""
-
-    def __init__(self, *flags: str, cwd: Path) -> None:
-        self.lines: list[str] = []
-        self._cond = threading.Condition()
-        self.process = subprocess.Popen(
-            [sys.executable, "-m", "wiswarm_zenoh.cli.main", "demo", *flags],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=cwd)
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        assert self.process.stdout is not None
-        for line in self.process.stdout:
-            with self._cond:
-                self.lines.append(line.rstrip("\n"))
-                self._cond.notify_all()
-        with self._cond:  # the end of the output: nothing more will match
-            self._cond.notify_all()
-
-    def wait_for(self, pattern: re.Pattern[str]) -> re.Match[str]:
-        """The first line matching ``pattern``, once printed (fails if the demo ends)."""
-        def found() -> re.Match[str] | None:
-            return next((m for line in self.lines if (m := pattern.search(line))), None)
-
-        with self._cond:
-            self._cond.wait_for(lambda: found() is not None or not self._reader.is_alive(),
-                                WAIT)
-            match = found()
-        assert match is not None, "\n".join(self.lines[-40:])
-        return match
-
-    def close(self) -> None:
-        if self.process.poll() is None:
-            self.process.kill()
-        self.process.wait()
-        self._reader.join(WAIT)
-
-
 @pytest.fixture
-def demo(tmp_path: Path) -> Iterator[Demo]:
-    running = Demo("--uavs", "1", "--duration", "1", "--warmup", "0.5", "--channel", "none",
-                   "--no-live", "--no-gif", "--keep-dashboard", "--out", str(tmp_path / "run"),
-                   cwd=tmp_path)
+def demo(tmp_path: Path) -> Iterator[Process]:
+    """``wiswarm demo`` as a user starts it, its output read line by line."""
+    running = Process("demo", ["demo", "--uavs", "1", "--duration", "1", "--warmup", "0.5",
+                               "--channel", "none", "--no-live", "--no-gif",
+                               "--keep-dashboard", "--out", str(tmp_path / "run")],
+                      cwd=tmp_path)
     try:
         yield running
     finally:
-        running.close()
+        if running.popen.poll() is None:
+            running.popen.kill()
+        running.popen.wait()
+        running.read_to_end(WAIT)
 
 
 def visit(url: str) -> tuple[str, dict[str, Any]]:
@@ -91,9 +55,10 @@ def visit(url: str) -> tuple[str, dict[str, Any]]:
     return asyncio.run(get())
 
 
-def test_the_finished_runs_stay_on_view_until_ctrl_c(demo: Demo, tmp_path: Path) -> None:
-    serving = demo.wait_for(SERVING)
-    assert demo.process.poll() is None  # the runs are over; the demo is not
+def test_the_finished_runs_stay_on_view_until_ctrl_c(demo: Process, tmp_path: Path) -> None:
+    serving = SERVING.match(demo.wait_for("dashboards of the finished runs", timeout=WAIT))
+    assert serving is not None, "\n".join(demo.lines[-40:])
+    assert demo.popen.poll() is None  # the runs are over; the demo is not
     assert (tmp_path / "run" / "summary.json").exists()  # compared and written first
     assert any(line.startswith("AoI mean (ms)") for line in demo.lines)
     wiswarm_url, push_url = serving.groups()
@@ -115,8 +80,8 @@ def test_the_finished_runs_stay_on_view_until_ctrl_c(demo: Demo, tmp_path: Path)
     assert [s["follower"] for s in push["stats"]] == ["uav0"]
     assert [t["uav"] for t in push["tracking"]] == ["uav0"]
 
-    demo.process.send_signal(signal.SIGINT)
-    assert demo.process.wait(WAIT) == 0, "\n".join(demo.lines[-40:])
+    demo.popen.send_signal(signal.SIGINT)
+    assert demo.popen.wait(WAIT) == 0, "\n".join(demo.lines[-40:])
     assert not any("Traceback" in line for line in demo.lines), "\n".join(demo.lines)
     for url in (wiswarm_url, push_url):  # the pages went with it
         with pytest.raises(aiohttp.ClientConnectionError):
