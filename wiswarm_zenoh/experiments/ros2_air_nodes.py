@@ -94,11 +94,14 @@ def camera_message(at: float, data: Any) -> Any:
 
 @dataclass(frozen=True)
 class RobotOptions:
-    """Robot ``index`` (1-based): its router connects to ``ground`` (an endpoint)."""
+    """Robot ``index`` (1-based): its router connects to ``ground`` (an endpoint);
+    ``retune`` changes its throttle (to a rate, or None: off) at wall-clock times, as
+    an operator re-tuning it in flight would (a mission's oracle throttle)."""
 
     index: int
     ground: str
     max_hz: float | None = None
+    retune: tuple[tuple[float, float | None], ...] = ()
     rate_hz: float = CAMERA_HZ
     image_bytes: int = IMAGE_BYTES
 
@@ -118,6 +121,7 @@ def run_robot(options: RobotOptions, stop: StopSignal, ready: ReadySignal | None
     """The robot's router and its camera until stopped (see the module's docstring)."""
     data = image_data(options.image_bytes)
     throttle = Throttle(options.max_hz)
+    retune = sorted(options.retune)
     name = robot_name(options.index)
     with options.router().open(), options.node().open() as session:
         node = Ros2Node(session, "camera", f"/{name}", DOMAIN, BadInputLog(log))
@@ -132,6 +136,8 @@ def run_robot(options: RobotOptions, stop: StopSignal, ready: ReadySignal | None
                 late += behind
                 frame += behind
             captured += 1
+            while retune and retune[0][0] <= time.time():
+                throttle = Throttle(retune.pop(0)[1])
             if throttle.passes(frame * period) and publisher.listening:
                 publisher.publish(camera_message(time.time(), data))
                 published += 1
@@ -144,17 +150,21 @@ def run_robot(options: RobotOptions, stop: StopSignal, ready: ReadySignal | None
 @dataclass(frozen=True)
 class ProbeOptions:
     """The ground's subscriber: ``topics`` as (robot, topic); every frame to ``record``
-    (a DeliveryRecord CSV: robot, its count, stamp, arrival, data bytes)."""
+    (a DeliveryRecord CSV: robot, its count, stamp, arrival, data bytes); ready once the
+    first frame of each robot of ``awaited`` came (None: of every robot)."""
 
     topics: tuple[tuple[str, str], ...]
     record: str
+    awaited: tuple[str, ...] | None = None
 
 
 def run_probe(spec: SessionSpec, options: ProbeOptions, stop: StopSignal,
               ready: ReadySignal | None = None) -> None:
     """The subscriber until stopped; ready once every robot's first frame came."""
     record = DeliveryRecord(options.record)
-    progress = Progress([robot for robot, _ in options.topics], ready)
+    awaited = options.awaited
+    progress = Progress(list(awaited) if awaited is not None
+                        else [robot for robot, _ in options.topics], ready)
     lock = threading.Lock()  # each subscription calls back on a Zenoh thread
     counts = dict.fromkeys((robot for robot, _ in options.topics), 0)
 

@@ -133,6 +133,13 @@ class Children:
         """Whether child ``name`` is still running."""
         return self._procs[name].is_alive()
 
+    def pid(self, name: str) -> int:
+        """Child ``name``'s process id (the testbed shapes what a process sends)."""
+        pid = self._procs[name].pid
+        if pid is None:
+            raise ValueError(f"child {name!r} has not started")
+        return pid
+
     def exit_code(self, name: str) -> int | None:
         """Child ``name``'s exit code (negative: the signal that ended it); None while
         it runs. For reports that must say which process failed."""
