@@ -199,6 +199,14 @@ class Leader:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
         return self._peer(follower).observe_urgency(v)
 
+    def set_weight(self, follower: str, weight: float) -> None:
+        """An operator's weight for ``follower``, as is (the urgency EMA goes on from
+        it); ValueError for a follower not polled or a weight that is not >= 0."""
+        if not (math.isfinite(weight) and weight >= 0.0):
+            raise ValueError(f"a weight must be a number >= 0, got {weight!r}")
+        self._peer(follower).set_weight(weight)
+        self._pick = None  # a pick made ahead weighed the old weight
+
     def receive_reply(self, follower: str, data: object, now: float) -> None:
         """One reply from ``follower`` (the key it came from), whatever it holds (not
         bytes at all: refused, as garbage is)."""
