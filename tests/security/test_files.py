@@ -81,7 +81,7 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
     leader = _allowed(_rules_of(router, "leader"))
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {
         KEYS.control, KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh,
-        f"{KEYS.prefix}/leader/deliveries"}
+        f"{KEYS.prefix}/leader/deliveries", KEYS.all_weights}  # weights: its side's tools
     assert ("liveliness_token", "ingress", KEYS.leaders) in leader
     # a standby follows the active leader: it may hear control and stats, not put stats
     assert ("declare_subscriber", "ingress", KEYS.control) in leader

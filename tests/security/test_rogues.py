@@ -80,10 +80,26 @@ def test_a_follower_cannot_put_control(sessions: Sessions, router: zenoh.Session
     ack.undeclare()
 
 
-def _put_and_check(leader: zenoh.Session, inbox: Inbox, payload: bytes) -> bool:
-    """Put ``payload`` on control; whether it came within a second (a subscription takes
-    a moment to reach the leader)."""
-    leader.put(KEYS.control, payload)
+def test_a_follower_cannot_set_a_weight(sessions: Sessions, router: zenoh.Session) -> None:
+    # The leader's side sets weights (a tool holding the leader's certificate); a
+    # follower putting its own weight up would take the others' polls.
+    leader, tool, f2 = (sessions.open(n) for n in ("leader", "leader", "f2"))
+    weights = Inbox(leader, KEYS.all_weights)
+    ack = answer(f2, KEYS.update("f2"), b"ack")
+    until("the tool's weight reaches the leader",
+          lambda: _put_and_check(tool, weights, b"2", KEYS.weight("f2")))
+    f2.put(KEYS.weight("f2"), b"100")
+    flushed(leader, "f2")
+    tool.put(KEYS.weight("f2"), b"3")
+    assert set(weights.wait_for(b"3")) == {b"2"}
+    ack.undeclare()
+
+
+def _put_and_check(leader: zenoh.Session, inbox: Inbox, payload: bytes,
+                   key: str = KEYS.control) -> bool:
+    """Put ``payload`` on ``key``; whether it came within a second (a subscription takes
+    a moment to reach the router)."""
+    leader.put(key, payload)
     return inbox.received(payload, 1.0)
 
 

@@ -115,6 +115,10 @@ def _leader_rules(roster: Roster) -> list[Rule]:
              INGRESS, [keys.members, keys.leaders, keys.all_sources]),
         # Any holder of the leader's certificate may run as a standby, under its own name.
         rule("leader-token", ["liveliness_token"], INGRESS, [keys.leaders]),
+        # Weights are the leader's side's to set (``weight_settings``): its tools hold
+        # its certificate; a follower's session may not put them.
+        rule("leader-weights", ["declare_subscriber", "put"], INGRESS, [keys.all_weights]),
+        rule("leader-gets-weights", ["put"], EGRESS, [keys.all_weights]),
         # A standby follows the active leader's control and stats, to take over from them.
         rule("leader-follows-leader", ["declare_subscriber"], INGRESS,
              [keys.control, keys.all_stats, keys.leader_stats]),

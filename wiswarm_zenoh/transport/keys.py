@@ -104,6 +104,16 @@ class SwarmKeys:
         """``wiswarm/<swarm>/<follower>/fresh``: its delivered updates, put by the leader."""
         return f"{self.prefix}/{check_follower(follower)}/fresh"
 
+    def weight(self, follower: str) -> str:
+        """``wiswarm/<swarm>/<follower>/weight``: its application weight, set by the
+        leader's side (the weight as decimal text)."""
+        return f"{self.prefix}/{check_follower(follower)}/weight"
+
+    @property
+    def all_weights(self) -> str:
+        """``wiswarm/<swarm>/*/weight``: every follower's weight setting."""
+        return f"{self.prefix}/*/weight"
+
     def source(self, follower: str) -> str:
         """``wiswarm/<swarm>/<follower>/source``: under it, the liveliness token that says
         what the follower serves (a ROS 2 topic: ``.../source/ros2/<topic>/<type>/<hash>``),

@@ -39,6 +39,7 @@ from wiswarm_zenoh.transport.outlets import Outlets
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD, StatsRounds
 from wiswarm_zenoh.transport.steady_gets import SteadyGets
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
+from wiswarm_zenoh.transport.weight_settings import WeightSettings
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -103,6 +104,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._steady = self._outlets.steady = SteadyGets(self._leader, self._reply, self._end)
         self.bridge = self._outlets.bridge = \
             None if bridge is None else bridge.open(session, swarm, self)
+        self._weights = WeightSettings(session, self.keys, self.set_weight, self.bad_input)
         self._lock = threading.Lock()  # the core's: held by the poll thread feeding it
         self._threads = [threading.Thread(target=self._run, name=f"leader-{swarm}/{i + 1}",
                                           daemon=True) for i in range(POLL_THREADS)]
@@ -169,6 +171,17 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         """The application's urgency signal for one follower, into its weight's EMA."""
         self._inbox.put(partial(self._apply, self._leader.observe_urgency, follower, v))
 
+    def set_weight(self, follower: str, weight: float) -> None:
+        """An operator's weight for one follower, as the weight key sets it
+        (``weight_settings``); ValueError at once for a follower not polled or a weight
+        that is not a number >= 0."""
+        if not (math.isfinite(weight) and weight >= 0.0):
+            raise ValueError(f"a weight must be a number >= 0, got {weight!r}")
+        if follower not in self._membership.followers:
+            raise ValueError(f"unknown follower {follower!r}")
+        log.info("%s: weight set to %g", follower, weight)
+        self._inbox.put(partial(self._apply, self._leader.set_weight, follower, weight))
+
     def close(self) -> None:
         """Stop polling (waits for the poll in flight) and undeclare everything."""
         self._stop.set()
@@ -180,6 +193,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
             thread.join()
         if self.bridge is not None:
             self.bridge.close()
+        self._weights.close()
         self._role.close()
         self._membership.close()
         self._outlets.close()
