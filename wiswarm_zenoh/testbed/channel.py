@@ -3,7 +3,9 @@ end's egress shaped by ``tc tbf`` (``netem`` is not available everywhere; tbf is
 
 The follower side's end carries every follower's frames to the leader side: that tbf
 is the shared uplink, the bottleneck the polling schedules. The leader side's end
-carries polls and control back, shaped too because they share the same air.
+carries polls and control back, shaped too because they share the same air. One
+process's flows can be capped inside the uplink (``cap_flows_of``: a robot whose link
+degrades), by an htb under its tbf.
 
 Nothing outside the two namespaces a channel creates is touched. Every channel has a
 small record under ``/run/wiswarm-testbed`` naming the process that owns it, so the
@@ -13,11 +15,14 @@ channels made by ``wiswarm testbed up`` are persistent and kept until ``down``.
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import logging
 import os
 import re
+import socket
+import sys
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from types import TracebackType
@@ -36,8 +41,23 @@ from wiswarm_zenoh.testbed.spec import (
     LinkCounters,
     check_available,
 )
-from wiswarm_zenoh.testbed.tc import counters, run, run_json, spec_from_tc, tbf_args, tbf_qdisc
-from wiswarm_zenoh.units import format_rate
+from wiswarm_zenoh.testbed.tc import (
+    UNCAPPED,
+    add_htb,
+    class_counters,
+    counters,
+    remove_class,
+    run,
+    run_json,
+    set_class,
+    set_queue,
+    spec_from_tc,
+    steer,
+    tbf_args,
+    tbf_qdisc,
+    unsteer,
+)
+from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
 
 log = logging.getLogger(__name__)
 
@@ -51,7 +71,9 @@ STATE_DIR = Path("/run/wiswarm-testbed")
 SUBNETS = range(1, 255)  # channel k: leader 10.201.k.1, follower 10.201.k.2 (/24)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,23}$")
 _counter = itertools.count()
+_ESTABLISHED = "01"  # a socket's state in /proc/net/tcp
 
+Flow = tuple[str, int, int]  # a TCP connection: remote address, local port, remote port
 
 
 @dataclass(frozen=True)
@@ -89,6 +111,15 @@ class _Record:
             return None
 
 
+@dataclass(frozen=True)
+class _Cap:
+    """One process's flows in htb class ``k`` of the uplink."""
+
+    k: int
+    rate_bps: int
+    flows: list[Flow]
+
+
 def _record_path(run_id: str) -> Path:
     return STATE_DIR / f"{run_id}.json"
 
@@ -103,6 +134,38 @@ def _addresses(subnet: int) -> tuple[str, str]:
 
 def _links(ns: str) -> set[str]:
     return {link["ifname"] for link in run_json("ip", "-n", ns, "-j", "link", "show")}
+
+
+def tcp_flows(pid: int, local_addr: str) -> list[Flow]:
+    """The established IPv4 TCP connections process ``pid`` holds from ``local_addr``:
+    the sockets among its descriptors, looked up in its namespace's table. ValueError if
+    there is no such process."""
+    try:
+        fds = os.listdir(f"/proc/{pid}/fd")
+        table = Path(f"/proc/{pid}/net/tcp").read_text().splitlines()[1:]
+    except FileNotFoundError:
+        raise ValueError(f"no process {pid}") from None
+    inodes = set()
+    for fd in fds:
+        with contextlib.suppress(OSError):  # closed meanwhile
+            target = os.readlink(f"/proc/{pid}/fd/{fd}")
+            if target.startswith("socket:["):
+                inodes.add(target[len("socket:["):-1])
+    flows = []
+    for line in table:
+        _, local, remote, state, *rest = line.split()
+        if state == _ESTABLISHED and rest[5] in inodes and _address_of(local) == local_addr:
+            flows.append((_address_of(remote), _port_of(local), _port_of(remote)))
+    return flows
+
+
+def _address_of(entry: str) -> str:
+    """``0100007F:1F90`` (the address as the host's u32 in hex, a port) -> 127.0.0.1."""
+    return socket.inet_ntoa(int(entry.split(":")[0], 16).to_bytes(4, sys.byteorder))
+
+
+def _port_of(entry: str) -> int:
+    return int(entry.split(":")[1], 16)
 
 
 def _owned_by_live_process(record: _Record) -> bool:
@@ -185,6 +248,8 @@ class Channel:
         self.owner_pid: int | None = os.getpid()  # None: unknown (a channel without record)
         self._name = name
         self._built = False
+        self._htb = False  # the uplink's htb for capped flows, built at the first cap
+        self._caps: dict[int, _Cap] = {}  # by process id
 
     def __enter__(self) -> Channel:
         return self.build()
@@ -288,6 +353,8 @@ class Channel:
             if new != old:
                 run("tc", "-n", ns, "qdisc", "change", "dev", ifname, "root",
                      *tbf_args(new, spec))
+        if self._htb and spec.rate_bps != self.spec.rate_bps:
+            set_queue(self.follower_ns, FOLLOWER_IF, UNCAPPED, spec.limit_bytes(spec.rate_bps))
         self.spec = spec
         with locked(STATE_DIR):
             record = _Record.load(self.run_id)
@@ -295,6 +362,59 @@ class Channel:
                 replace(record, spec=spec).save()
         log.info("testbed channel %s: rate now %s up, %s down", self.run_id,
                  format_rate(spec.rate_bps), format_rate(spec.down_bps))
+
+    def cap_flows_of(self, pid: int, rate_bps: int) -> list[Flow]:
+        """Cap process ``pid``'s share of the uplink at ``rate_bps`` while the uplink
+        keeps its own rate: one robot's link degraded, the robot being a process in the
+        follower side's namespace (its router, connected to the ground's). Its TCP
+        connections from the follower side, as they are now, go into an htb class of
+        that rate with a queue of the channel's latency at it (the htb is built under the
+        tbf at the first cap). A connection it opens later is not capped: cap again,
+        which also changes the rate. Returns the flows capped; ValueError if the rate is
+        out of range or the process has no connection across the channel."""
+        self._require_built()
+        if not (isinstance(rate_bps, int) and MIN_RATE_BPS <= rate_bps <= MAX_RATE_BPS):
+            raise ValueError(f"a cap must be a whole number of bits/s between "
+                             f"{format_rate(MIN_RATE_BPS)} and {format_rate(MAX_RATE_BPS)}, "
+                             f"got {rate_bps!r}")
+        flows = tcp_flows(pid, self.follower_addr)
+        if not flows:
+            raise ValueError(f"process {pid} has no TCP connection from the follower side "
+                             f"({self.follower_addr}) of channel {self.run_id} to cap")
+        if not self._htb:
+            add_htb(self.follower_ns, FOLLOWER_IF, self.spec, self.spec.rate_bps)
+            self._htb = True
+        was = self._caps.get(pid)
+        k = was.k if was else next(k for k in itertools.count(UNCAPPED + 1)
+                                   if k not in {cap.k for cap in self._caps.values()})
+        set_class(self.follower_ns, FOLLOWER_IF, k, rate_bps, self.spec.limit_bytes(rate_bps),
+                  self.spec)
+        if was:
+            unsteer(self.follower_ns, FOLLOWER_IF, k)
+        steer(self.follower_ns, FOLLOWER_IF, k, flows)
+        self._caps[pid] = _Cap(k, rate_bps, flows)
+        log.info("testbed channel %s: process %d's %d flow(s) capped at %s", self.run_id,
+                 pid, len(flows), format_rate(rate_bps))
+        return flows
+
+    def uncap(self, pid: int) -> None:
+        """Process ``pid``'s flows back to the uplink's full share (packets still queued
+        in its cap are lost; TCP sends them again). ValueError if it is not capped."""
+        cap = self._cap(pid)
+        unsteer(self.follower_ns, FOLLOWER_IF, cap.k)
+        remove_class(self.follower_ns, FOLLOWER_IF, cap.k)
+        del self._caps[pid]
+        log.info("testbed channel %s: process %d's flows uncapped", self.run_id, pid)
+
+    def cap_counters(self, pid: int) -> LinkCounters:
+        """What process ``pid``'s cap let through and dropped since it was first set."""
+        return class_counters(self.follower_ns, FOLLOWER_IF, self._cap(pid).k)
+
+    def _cap(self, pid: int) -> _Cap:
+        self._require_built()
+        if pid not in self._caps:
+            raise ValueError(f"process {pid}'s flows are not capped on channel {self.run_id}")
+        return self._caps[pid]
 
     def uplink(self) -> LinkCounters:
         """The followers -> leader direction (the follower side's tbf)."""
@@ -323,6 +443,8 @@ class Channel:
             f"burst {spec.burst_bytes} bytes, MTU {MTU}",
             f"  leader side: router + leader in {self.leader_ns} at {self.leader_addr}",
             f"  follower side: followers in {self.follower_ns} at {self.follower_addr}",
+            *(f"  process {pid}'s {len(cap.flows)} flow(s) capped at "
+              f"{format_rate(cap.rate_bps)}" for pid, cap in self._caps.items()),
         ))
 
     @classmethod

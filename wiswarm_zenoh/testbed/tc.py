@@ -9,9 +9,13 @@ import subprocess
 from dataclasses import replace
 from typing import Any
 
-from wiswarm_zenoh.testbed.spec import ChannelSpec, LinkCounters
+from wiswarm_zenoh.testbed.spec import MAX_FRAME_BYTES, ChannelSpec, LinkCounters
+from wiswarm_zenoh.units import MAX_RATE_BPS
 
 log = logging.getLogger(__name__)
+
+HTB = 0x10  # the htb's major number, under the root tbf once a flow is capped
+UNCAPPED = 1  # its default class: every flow not capped, shaped by the tbf alone
 
 
 def run(*argv: str) -> str:
@@ -73,8 +77,73 @@ def spec_from_tc(up: dict[str, Any], down: dict[str, Any],
     return ChannelSpec(rate, queue, None if down_rate == rate else down_rate, burst)
 
 
+def _counters(qdisc: dict[str, Any]) -> LinkCounters:
+    return LinkCounters(sent_bytes=qdisc["bytes"], sent_packets=qdisc["packets"],
+                        dropped=qdisc["drops"], overlimits=qdisc["overlimits"],
+                        backlog_bytes=qdisc["backlog"])
+
+
 def counters(ns: str, ifname: str) -> LinkCounters:
-    tbf = tbf_qdisc(ns, ifname)
-    return LinkCounters(sent_bytes=tbf["bytes"], sent_packets=tbf["packets"],
-                        dropped=tbf["drops"], overlimits=tbf["overlimits"],
-                        backlog_bytes=tbf["backlog"])
+    """The root tbf's: every byte of the direction, capped flows' too."""
+    return _counters(tbf_qdisc(ns, ifname))
+
+
+def _leaf(k: int) -> str:
+    return f"{0x100 + k:x}:"
+
+
+def add_htb(ns: str, ifname: str, spec: ChannelSpec, rate_bps: int) -> None:
+    """An htb as the root tbf's one child, for flows to be capped in classes of their
+    own; everything else in its default class, at no rate of its own (the tbf's rate
+    rules) and with the tbf's queue limit (``set_queue``), so nothing changes for it."""
+    tbf = tbf_qdisc(ns, ifname)["handle"]
+    run("tc", "-n", ns, "qdisc", "replace", "dev", ifname, "parent", f"{tbf}1",
+        "handle", f"{HTB:x}:", "htb", "default", f"{UNCAPPED:x}")
+    set_class(ns, ifname, UNCAPPED, MAX_RATE_BPS, spec.limit_bytes(rate_bps), spec)
+
+
+def set_class(ns: str, ifname: str, k: int, rate_bps: int, limit_bytes: int,
+              spec: ChannelSpec) -> None:
+    """Class ``k`` of the htb at ``rate_bps`` (its ceiling too: it never borrows), made
+    or changed, with a byte FIFO of ``limit_bytes`` (tbf's limit: rate * latency +
+    burst); its queued packets stay queued. Quantum one frame: when both the default
+    class and a capped one under its rate have packets, they take turns frame by frame."""
+    run("tc", "-n", ns, "class", "replace", "dev", ifname, "parent", f"{HTB:x}:",
+        "classid", f"{HTB:x}:{k:x}", "htb", "rate", f"{rate_bps}bit", "ceil",
+        f"{rate_bps}bit", "burst", str(spec.burst_bytes), "cburst", str(spec.burst_bytes),
+        "quantum", str(MAX_FRAME_BYTES))
+    set_queue(ns, ifname, k, limit_bytes)
+
+
+def set_queue(ns: str, ifname: str, k: int, limit_bytes: int) -> None:
+    run("tc", "-n", ns, "qdisc", "replace", "dev", ifname, "parent", f"{HTB:x}:{k:x}",
+        "handle", _leaf(k), "bfifo", "limit", str(limit_bytes))
+
+
+def steer(ns: str, ifname: str, k: int, flows: list[tuple[str, int, int]]) -> None:
+    """TCP packets of ``flows`` (destination address, source port, destination port)
+    into class ``k``, by filters of their own priority (``unsteer`` removes them)."""
+    for dst, sport, dport in flows:
+        run("tc", "-n", ns, "filter", "add", "dev", ifname, "parent", f"{HTB:x}:",
+            "protocol", "ip", "prio", str(k), "u32", "match", "ip", "protocol", "6", "0xff",
+            "match", "ip", "dst", f"{dst}/32", "match", "ip", "sport", str(sport), "0xffff",
+            "match", "ip", "dport", str(dport), "0xffff", "flowid", f"{HTB:x}:{k:x}")
+
+
+def unsteer(ns: str, ifname: str, k: int) -> None:
+    """Class ``k``'s filters removed: its flows back in the default class."""
+    run("tc", "-n", ns, "filter", "del", "dev", ifname, "parent", f"{HTB:x}:",
+        "prio", str(k))
+
+
+def remove_class(ns: str, ifname: str, k: int) -> None:
+    """Class ``k`` and its queue (packets still in it lost), once ``unsteer``ed."""
+    run("tc", "-n", ns, "class", "del", "dev", ifname, "classid", f"{HTB:x}:{k:x}")
+
+
+def class_counters(ns: str, ifname: str, k: int) -> LinkCounters:
+    """Class ``k``'s queue's (a FIFO: its overlimits are always 0)."""
+    for qdisc in run_json("tc", "-n", ns, "-s", "-j", "qdisc", "show", "dev", ifname):
+        if qdisc.get("handle") == _leaf(k):
+            return _counters(qdisc)
+    raise RuntimeError(f"no queue of class {HTB:x}:{k:x} on {ifname} in namespace {ns}")
