@@ -9,6 +9,8 @@ address; the ns-3 scenario (``ns3/wifi_medium.cc``, built on first use) opens th
 and runs in real time under a hard limit on lag, writing its counters (per node: frames
 through the tap, MAC acks, failed transmissions, drops, airtime; the largest lag) as JSON
 lines to a stats file. A lag beyond the limit ends the scenario: ``check`` then raises.
+A station's data rate can be lowered at run time (``set_station_rate``: a command on the
+scenario's stdin, answered on its stdout).
 
 Records live under ``/run/wiswarm-testbed/wifi`` (not beside the tbf channels' records,
 which ``channel`` prunes), naming the owning process and the scenario's, so the next
@@ -26,7 +28,7 @@ import re
 import select
 import signal
 import subprocess
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any
@@ -271,10 +273,47 @@ class WifiMedium:
         for ns, mac in zip(namespaces, addresses["macs"], strict=True):
             run("ip", "-n", ns, "link", "set", "dev", TAP, "address", str(mac))
             run("ip", "-n", ns, "link", "set", "dev", TAP, "up")
-        scenario.stdin.write("go\n")
-        scenario.stdin.close()
+        self._command("go")  # stdin stays open for commands (set_station_rate)
         self._expect(scenario.stdout, "ready")
-        scenario.stdout.close()
+
+    def _command(self, line: str) -> None:
+        assert self._scenario is not None and self._scenario.stdin is not None
+        self._scenario.stdin.write(f"{line}\n")
+        self._scenario.stdin.flush()
+
+    def set_station_rate(self, station: int, data_mode: str) -> None:
+        """Station ``station``'s (1 .. stations, as in ``address``) data rate from now on:
+        a robot flying away, its rate adaptation stepping down. Its frames to the access
+        point go at ``data_mode`` (an ns-3 WifiMode of the medium's standard, as in
+        WifiSpec); the access point's to it and control frames keep theirs. Returns once
+        the scenario applied it. ValueError for a station or mode the medium lacks;
+        RuntimeError on a medium another process built (commands go to its scenario's
+        stdin); MediumFailed if the scenario ended or does not answer."""
+        if not (isinstance(station, int) and 1 <= station <= self.spec.stations):
+            raise ValueError(f"station must be in [1, {self.spec.stations}] on WiFi medium "
+                             f"{self.run_id}, got {station!r}")
+        replace(self.spec, data_mode=data_mode)  # the mode's own check, naming it
+        scenario = self._scenario
+        if scenario is None or scenario.stdout is None:
+            raise RuntimeError(f"only the process that built WiFi medium {self.run_id} can "
+                               "change its rates")
+        self.check()
+        try:
+            self._command(f"rate {station} {data_mode}")
+        except BrokenPipeError:
+            self.check()  # it ended meanwhile: says how
+            raise
+        if not select.select([scenario.stdout], [], [], STOP_TIMEOUT)[0]:
+            self.check()
+            raise MediumFailed(f"WiFi medium {self.run_id}: the ns-3 scenario did not answer "
+                               f"`rate` in {STOP_TIMEOUT:g} s")
+        answer = json.loads(scenario.stdout.readline() or "{}")
+        if answer.get("event") != "rate":
+            self.check()
+            raise ValueError(f"WiFi medium {self.run_id}: "
+                             f"{answer.get('message', 'no answer to `rate`')}")
+        log.info("WiFi medium %s: station %d's data rate now %s (t=%.3f s)", self.run_id,
+                 station, data_mode, answer["t"])
 
     def _expect(self, stream: IO[str], event: str) -> dict[str, Any]:
         line = stream.readline()
@@ -335,13 +374,14 @@ class WifiMedium:
         """Stop the scenario, remove namespaces, taps and record; safe to repeat."""
         if not self._built:
             return
-        if self._scenario is not None and self._scenario.poll() is None:
-            self._scenario.terminate()
-            try:
-                self._scenario.wait(STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                self._scenario.kill()
-                self._scenario.wait()
+        if self._scenario is not None:
+            with self._scenario as scenario:  # its pipes closed on leaving
+                if scenario.poll() is None:
+                    scenario.terminate()
+                    try:
+                        scenario.wait(STOP_TIMEOUT)
+                    except subprocess.TimeoutExpired:
+                        scenario.kill()
         with locked(RECORDS):
             _remove_locked(self.run_id, _load(self.run_id))
         self._built = False

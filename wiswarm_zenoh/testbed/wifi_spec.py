@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 STANDARDS = ("80211g", "80211n")
 MAX_STATIONS = 30
+ERP_MBPS = (6, 9, 12, 18, 24, 36, 48, 54)  # 802.11g's ERP-OFDM data rates
 HT_20MHZ_MBPS = (6.5, 13.0, 19.5, 26.0, 39.0, 52.0, 58.5, 65.0)  # MCS 0-7, long guard
 SATURATED_SHARE = 0.7
 
@@ -34,13 +35,15 @@ class WifiSpec:
         mode = self.data_mode or ("ErpOfdmRate24Mbps" if self.standard == "80211g"
                                   else "HtMcs7")
         erp = re.fullmatch(r"ErpOfdmRate(\d+)Mbps", mode)
-        if erp:
+        if erp and int(erp.group(1)) in ERP_MBPS:
             return float(erp.group(1)) * 1e6
         ht = re.fullmatch(r"HtMcs(\d+)", mode)
-        if ht and int(ht.group(1)) < len(HT_20MHZ_MBPS):
+        if ht and int(ht.group(1)) < len(HT_20MHZ_MBPS) and self.standard == "80211n":
             return HT_20MHZ_MBPS[int(ht.group(1))] * 1e6
-        raise ValueError(f"data_mode {mode!r}: use ErpOfdmRate<R>Mbps (802.11g) or "
-                         "HtMcs0..HtMcs7 (802.11n)")
+        # Refused here, not by ns-3: a mode its PHY lacks ends the scenario.
+        raise ValueError(f"data_mode {mode!r}: use ErpOfdmRate<R>Mbps, R one of "
+                         f"{', '.join(map(str, ERP_MBPS))} (802.11g or n), or HtMcs0..HtMcs7 "
+                         "(802.11n)")
 
     @property
     def capacity_bps(self) -> float:

@@ -20,6 +20,13 @@
 // the end. A lag beyond --hardLimitMs ends the run
 // with exit status 3 after a {"event":"lag-exceeded"} line (ns-3's own HardLimit mode
 // aborts too). SIGTERM or SIGINT end the run cleanly (final stats, status 0).
+//
+// Commands, in real time, one a line on stdin after "ready" (each answered by one JSON
+// line on stdout, once it took effect in the simulation):
+//   rate <node> <WifiMode>  station <node>'s data rate from now on (a robot flying away:
+//                           its frames to the AP slower; the AP's to it, and control
+//                           frames, unchanged) -> {"event":"rate","node":..,"data_mode":..}
+// A bad command is answered {"event":"error","message":...} and changes nothing.
 #include "ns3/ap-wifi-mac.h"
 #include "ns3/core-module.h"
 #include "ns3/fd-reader.h"
@@ -29,6 +36,7 @@
 #include "ns3/sta-wifi-mac.h"
 #include "ns3/wifi-module.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <deque>
@@ -248,6 +256,102 @@ class TapGlue : public SimpleRefCount<TapGlue>
     Ptr<NetDevice> m_device;
     int m_fd;
     Ptr<TapReader> m_reader;
+};
+
+class LineReader : public FdReader
+{
+  protected:
+    Data DoRead() override
+    {
+        auto* buf = static_cast<uint8_t*>(std::malloc(4096));
+        ssize_t len = read(m_fd, buf, 4096);
+        if (len <= 0)
+        {
+            std::free(buf);
+            return Data(nullptr, 0); // end of input: the reader stops
+        }
+        return Data(buf, len);
+    }
+};
+
+void
+Reply(const std::string& json)
+{
+    std::cout << json << std::endl;
+}
+
+/// The commands on stdin: read on a thread of their own, each run in the simulation at
+/// the current real time (where Ptrs may be touched, see TapGlue::FromTap).
+class Commands : public SimpleRefCount<Commands>
+{
+  public:
+    explicit Commands(NetDeviceContainer devices)
+        : m_devices(devices)
+    {
+        m_reader = Create<LineReader>();
+        m_reader->Start(STDIN_FILENO, MakeCallback(&Commands::FromStdin, this));
+    }
+
+    void Stop()
+    {
+        m_reader->Stop();
+    }
+
+  private:
+    // The reader thread: whole lines to the simulation, nothing of ns-3's touched.
+    void FromStdin(uint8_t* buf, ssize_t len)
+    {
+        m_partial.append(reinterpret_cast<char*>(buf), len);
+        std::free(buf);
+        for (size_t end; (end = m_partial.find('\n')) != std::string::npos;)
+        {
+            Simulator::ScheduleWithContext(Simulator::NO_CONTEXT,
+                                           Seconds(0),
+                                           MakeEvent(&Commands::Run, this,
+                                                     m_partial.substr(0, end)));
+            m_partial.erase(0, end + 1);
+        }
+    }
+
+    void Run(std::string line)
+    {
+        std::istringstream in(line);
+        std::string verb;
+        std::string mode;
+        uint32_t node = 0;
+        if (!(in >> verb >> node >> mode) || verb != "rate")
+        {
+            Reply("{\"event\":\"error\",\"message\":\"unknown command (use: rate <node> "
+                  "<WifiMode>)\"}");
+            return;
+        }
+        if (node == 0 || node >= m_devices.GetN())
+        {
+            Reply("{\"event\":\"error\",\"message\":\"no station " + std::to_string(node) +
+                  "\"}");
+            return;
+        }
+        auto device = DynamicCast<WifiNetDevice>(m_devices.Get(node));
+        std::list<WifiMode> modes = device->GetPhy()->GetModeList();
+        modes.splice(modes.end(), device->GetPhy()->GetMcsList());
+        if (std::none_of(modes.begin(), modes.end(), [&mode](const WifiMode& known) {
+                return known.GetUniqueName() == mode;
+            }))
+        {
+            Reply("{\"event\":\"error\",\"message\":\"station " + std::to_string(node) +
+                  "'s PHY has no mode " + mode + "\"}");
+            return;
+        }
+        device->GetRemoteStationManager()->SetAttribute("DataMode", StringValue(mode));
+        std::ostringstream out;
+        out << "{\"event\":\"rate\",\"node\":" << node << ",\"data_mode\":\"" << mode
+            << "\",\"t\":" << Simulator::Now().GetSeconds() << "}";
+        Reply(out.str());
+    }
+
+    NetDeviceContainer m_devices;
+    Ptr<LineReader> m_reader;
+    std::string m_partial; // the reader thread's: a line not yet complete
 };
 
 uint32_t
@@ -826,8 +930,11 @@ main(int argc, char** argv)
             Simulator::Schedule(Seconds(1.0), &Collector::Poll, collector);
         }
     }
+    // After the "go" line: std::cin read nothing beyond it, the caller waiting for "ready"
+    Ptr<Commands> commands = taps ? Create<Commands>(devices) : nullptr;
     std::signal(SIGTERM, OnSignal);
     std::signal(SIGINT, OnSignal);
+    std::signal(SIGPIPE, SIG_IGN); // an answer nobody reads any more is not a crash
     Ptr<RealtimeSimulatorImpl> realtime =
         DynamicCast<RealtimeSimulatorImpl>(Simulator::GetImplementation());
     Simulator::ScheduleNow(&WatchLag, realtime);
@@ -845,6 +952,10 @@ main(int argc, char** argv)
     for (auto& g : glue)
     {
         g->Stop();
+    }
+    if (commands)
+    {
+        commands->Stop();
     }
     Simulator::Destroy();
     return 0;
