@@ -138,10 +138,11 @@ struct Counters
 std::vector<Counters> g_counters;
 std::ostream* g_stats = &std::cout;
 
-class TapReader : public FdReader
+/// What one read of an fd gives (a tap's frame, stdin's bytes); its end stops the reader.
+class ChunkReader : public FdReader
 {
   public:
-    explicit TapReader(int fd)
+    explicit ChunkReader(int fd)
     {
         m_fd = fd;
     }
@@ -172,7 +173,7 @@ class TapGlue : public SimpleRefCount<TapGlue>
     {
         device->SetReceiveCallback(MakeCallback(&TapGlue::Ignore));
         device->SetPromiscReceiveCallback(MakeCallback(&TapGlue::FromDevice, this));
-        m_reader = Create<TapReader>(fd);
+        m_reader = Create<ChunkReader>(fd);
         m_reader->Start(fd, MakeCallback(&TapGlue::FromTap, this));
     }
 
@@ -255,23 +256,7 @@ class TapGlue : public SimpleRefCount<TapGlue>
     uint32_t m_nodeId;
     Ptr<NetDevice> m_device;
     int m_fd;
-    Ptr<TapReader> m_reader;
-};
-
-class LineReader : public FdReader
-{
-  protected:
-    Data DoRead() override
-    {
-        auto* buf = static_cast<uint8_t*>(std::malloc(4096));
-        ssize_t len = read(m_fd, buf, 4096);
-        if (len <= 0)
-        {
-            std::free(buf);
-            return Data(nullptr, 0); // end of input: the reader stops
-        }
-        return Data(buf, len);
-    }
+    Ptr<ChunkReader> m_reader;
 };
 
 void
@@ -288,7 +273,7 @@ class Commands : public SimpleRefCount<Commands>
     explicit Commands(NetDeviceContainer devices)
         : m_devices(devices)
     {
-        m_reader = Create<LineReader>();
+        m_reader = Create<ChunkReader>(STDIN_FILENO);
         m_reader->Start(STDIN_FILENO, MakeCallback(&Commands::FromStdin, this));
     }
 
@@ -350,7 +335,7 @@ class Commands : public SimpleRefCount<Commands>
     }
 
     NetDeviceContainer m_devices;
-    Ptr<LineReader> m_reader;
+    Ptr<ChunkReader> m_reader;
     std::string m_partial; // the reader thread's: a line not yet complete
 };
 
