@@ -44,13 +44,14 @@ def register(subparsers: Any) -> None:
     """Add ``experiment`` and every study under it."""
     from wiswarm_apps.tracking.cli import register_tracking
     from wiswarm_zenoh.cli.edge_cloud import register_edge_cloud
+    from wiswarm_zenoh.cli.mission import register_mission
     from wiswarm_zenoh.cli.sim import register_sweep
 
     experiment = subparsers.add_parser("experiment", help="reproduce the paper's experiments")
     studies = experiment.add_subparsers(dest="study", metavar="STUDY", parser_class=OneLineParser)
     studies.required = True
     for register_study in (register_sweep, register_testbed, register_tracking,
-                           register_edge_cloud):
+                           register_edge_cloud, register_mission):
         register_study(studies)
 
 
