@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.edge_cloud_run import EdgeCloudResults, SetupResult
+from wiswarm_zenoh.experiments.report_cells import ms, ratio, times
 from wiswarm_zenoh.testbed.run import failed_line
 from wiswarm_zenoh.units import format_rate
 
@@ -74,16 +75,7 @@ def floor_of(results: EdgeCloudResults) -> Floor | None:
                  config.frame_time(config.wan.rate_bps), config.pairs)
 
 
-def _ratio(a: float, b: float) -> float:
-    return a / b if b > 0 and math.isfinite(a) and math.isfinite(b) else math.nan
 
-
-def _ms(seconds: float) -> str:
-    return "-" if math.isnan(seconds) else f"{seconds * 1e3:.0f}"
-
-
-def _x(value: float) -> str:
-    return "-" if math.isnan(value) else f"{value:.2f}"
 
 
 def write_csvs(out: Path, results: EdgeCloudResults, floor: Floor | None) -> list[Path]:
@@ -119,8 +111,8 @@ def write_csvs(out: Path, results: EdgeCloudResults, floor: Floor | None) -> lis
                 f"{r.wan_up_mbps:.6g}", f"{r.wan_down_mbps:.6g}",
                 f"{r.mean('mean_aoi_s', at_edge=True):.6g}", f"{r.least_age_s:.6g}",
                 "" if floor is None else f"{floor.total_s:.6g}",
-                "" if floor is None else f"{_ratio(mean, floor.total_s):.4g}",
-                "" if direct is None else f"{_ratio(direct.mean('mean_aoi_s'), mean):.4g}"])
+                "" if floor is None else f"{ratio(mean, floor.total_s):.4g}",
+                "" if direct is None else f"{ratio(direct.mean('mean_aoi_s'), mean):.4g}"])
     return [pairs, summary]
 
 
@@ -170,13 +162,13 @@ def table(results: EdgeCloudResults, floor: Floor | None) -> list[str]:
     for r in results.results:
         mean = r.mean("mean_aoi_s")
         lines.append(
-            f"| {r.setup.label} | {r.setup.in_flight} | {_ms(mean)} | "
-            f"{_ms(r.mean('p95_aoi_s'))} | {r.mean('throughput_fps'):.1f} | "
+            f"| {r.setup.label} | {r.setup.in_flight} | {ms(mean)} | "
+            f"{ms(r.mean('p95_aoi_s'))} | {r.mean('throughput_fps'):.1f} | "
             f"{sum(f.throughput_mbps for f in r.measured):.1f} | "
             f"{r.wan_up_mbps:.1f} / {r.wan_down_mbps:.2f} | "
-            f"{_ms(r.mean('mean_aoi_s', at_edge=True))} | "
-            f"{_x(math.nan if floor is None else _ratio(mean, floor.total_s))} | "
-            f"{_x(math.nan if direct is None else _ratio(direct.mean('mean_aoi_s'), mean))} |")
+            f"{ms(r.mean('mean_aoi_s', at_edge=True))} | "
+            f"{times(math.nan if floor is None else ratio(mean, floor.total_s))} | "
+            f"{times(math.nan if direct is None else ratio(direct.mean('mean_aoi_s'), mean))} |")
     return lines
 
 
@@ -189,12 +181,12 @@ def targets(results: EdgeCloudResults, floor: Floor | None) -> list[str]:
         if r.setup.kind != "hierarchy" or floor is None:
             continue
         mean = r.mean("mean_aoi_s")
-        over = _ratio(mean, floor.total_s)
-        line = (f"- {r.setup.label}: {_ms(mean)} ms = {_x(over)} x the floor (target "
+        over = ratio(mean, floor.total_s)
+        line = (f"- {r.setup.label}: {ms(mean)} ms = {times(over)} x the floor (target "
                 f"<= {FLOOR_TARGET:g}: {'met' if over <= FLOOR_TARGET else 'not met'})")
         if direct is not None:
-            gain = _ratio(direct.mean("mean_aoi_s"), mean)
-            line += (f"; direct polling's is {_x(gain)} x it (target >= {DIRECT_TARGET:g}: "
+            gain = ratio(direct.mean("mean_aoi_s"), mean)
+            line += (f"; direct polling's is {times(gain)} x it (target >= {DIRECT_TARGET:g}: "
                      f"{'met' if gain >= DIRECT_TARGET else 'not met'})")
         elif not results.config.secure:
             continue
@@ -216,10 +208,10 @@ def report(results: EdgeCloudResults) -> str:
             "Floor = the edge's own mean AoI + the one-way delay + the WAN's own "
             "round-robin floor S_wan (M/2 + 1), with S_wan one frame's time on the WAN "
             f"(headers included) and M = {floor.pairs} pairs: "
-            f"{_ms(floor.edge_s)} + {_ms(floor.delay_s)} + {floor.s_wan * 1e3:.1f} x "
-            f"({floor.pairs}/2 + 1) = **{_ms(floor.total_s)} ms**. It assumes a WAN kept "
+            f"{ms(floor.edge_s)} + {ms(floor.delay_s)} + {floor.s_wan * 1e3:.1f} x "
+            f"({floor.pairs}/2 + 1) = **{ms(floor.total_s)} ms**. It assumes a WAN kept "
             "busy; with one poll in flight each poll holds it for a round trip "
-            f"(2d + S_wan), and the floor is {_ms(floor.one_in_flight_s)} ms. "
+            f"(2d + S_wan), and the floor is {ms(floor.one_in_flight_s)} ms. "
             f"(2d + S_wan) / S_wan = {(2 * floor.delay_s + floor.s_wan) / floor.s_wan:.1f} "
             "polls in flight keep it busy."]
     events = [f"- {r.setup.label}: {e}" for r in results.results for e in r.events]

@@ -22,13 +22,12 @@ import contextlib
 import logging
 import multiprocessing
 import os
-import subprocess
-import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from wiswarm_zenoh.experiments.cli_processes import Cli, start_cli, stop_cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
 from wiswarm_zenoh.experiments.mission_nodes import OperatorOptions, run_operator
 from wiswarm_zenoh.experiments.mission_scenario import Mission, Phase
@@ -78,7 +77,6 @@ REALIZABLE = ("direct", "fixed-first", "fixed-largest", "newest")
 NEWEST_ONLY = ("--system", "push", "--newest-only")  # wiswarm follower's flags for (d)
 SUPERVISE_PERIOD = 0.25
 CONNECT_WAIT = 10.0  # seconds for a robot that just took off to reach the ground
-STOP_TIMEOUT = 5.0
 WEIGHT_REPEATS = (0.0, 2.0, 5.0)  # a weight put again this long after its phase starts:
 # a robot that joins in the phase is polled once its token reached the leader
 
@@ -150,30 +148,6 @@ def _topic(system: str, robot: int) -> str:
     leader (or, newest-only, its follower) publishes for it."""
     kind = "wiswarm" if system in ("wiswarm", "newest") else "direct"
     return AirCase(kind, robot).topic(robot)
-
-
-Cli = tuple[str, subprocess.Popen[bytes]]
-
-
-def start_cli(ns: str, argv: list[str], logs: Path, tag: str) -> Cli:
-    """``wiswarm <argv>`` in namespace ``ns``, its stderr to ``logs/<tag>.log``."""
-    with (logs / f"{tag}.log").open("ab") as err:
-        return (" ".join(["wiswarm", *argv]), subprocess.Popen(
-            ["ip", "netns", "exec", ns, sys.executable, "-m", "wiswarm_zenoh.cli.main", *argv],
-            stdout=subprocess.DEVNULL, stderr=err, start_new_session=True))
-
-
-def stop_cli(clis: Sequence[Cli]) -> None:
-    """SIGTERM to each, then killed if it does not end."""
-    for _, proc in clis:
-        proc.terminate()
-    for what, proc in clis:
-        try:
-            proc.wait(STOP_TIMEOUT)
-        except subprocess.TimeoutExpired:
-            log.warning("%s did not stop: killing it", what)
-            proc.kill()
-            proc.wait()
 
 
 class _Swarm:

@@ -15,6 +15,7 @@ from wiswarm_zenoh.experiments.mission_metrics import (
     whole,
 )
 from wiswarm_zenoh.experiments.mission_study import MissionResults, WeightCheck
+from wiswarm_zenoh.experiments.report_cells import ms, ratio, times
 from wiswarm_zenoh.experiments.ros2_air_nodes import robot_name
 
 TARGET_WHOLE = 1.5  # every realizable system's weighted mean AoI / WiSwarm's, at least
@@ -22,16 +23,7 @@ TARGET_ORACLE = 1.2  # WiSwarm / the oracle throttle in every phase, at most
 TARGET_WEIGHT_FALL = 0.30  # the raised robot's AoI falls at least this much
 
 
-def _ms(seconds: float) -> str:
-    return "-" if math.isnan(seconds) else f"{seconds * 1e3:.0f}"
 
-
-def _ratio(a: float, b: float) -> float:
-    return a / b if b > 0 and not math.isnan(a) else math.nan
-
-
-def _x(value: float) -> str:
-    return "-" if math.isnan(value) else f"{value:.2f}"
 
 
 def _rate(run: MissionRun, phase: int) -> str:
@@ -61,9 +53,9 @@ def table(results: MissionResults, medium: str) -> list[str]:
             name = f"**{fig.name}**" if last else fig.name
             lines.append(
                 f"| {LABELS[run.system]} | {name} | {len(fig.robots) if not last else ''} | "
-                f"{rate} | {_ms(fig.mean_aoi)} | {_ms(fig.p95_aoi)} | "
-                f"{_ms(fig.weighted_aoi)} | {fig.up_bytes / 1e6:.0f} / "
-                f"{fig.down_bytes / 1e6:.0f} | {_x(_ratio(fig.weighted_aoi, c))} |")
+                f"{rate} | {ms(fig.mean_aoi)} | {ms(fig.p95_aoi)} | "
+                f"{ms(fig.weighted_aoi)} | {fig.up_bytes / 1e6:.0f} / "
+                f"{fig.down_bytes / 1e6:.0f} | {times(ratio(fig.weighted_aoi, c))} |")
     return lines
 
 
@@ -80,8 +72,8 @@ def robot_lines(results: MissionResults, medium: str) -> list[str]:
             cells = []
             for robot in robots:
                 one = fig.robot(robot)
-                cells.append("" if one is None else f"{_ms(one.metrics.mean_aoi_s)} / "
-                             f"{_ms(one.metrics.p95_aoi_s)}")
+                cells.append("" if one is None else f"{ms(one.metrics.mean_aoi_s)} / "
+                             f"{ms(one.metrics.p95_aoi_s)}")
             lines.append(f"| {fig.name} | " + " | ".join(cells) + " |")
         lines.append("")
     return lines
@@ -122,9 +114,9 @@ def weight_lines(results: MissionResults) -> list[str]:
         for robot, a, b, fall in weight_fall(check):
             others = (_others(check.before, check.raised), _others(check.after, check.raised))
             lines.append(f"- {check.medium}, {check.phase}: {robot_name(robot)}'s AoI "
-                         f"{_ms(a)} -> {_ms(b)} ms ({fall * 100:.0f} % lower) when its "
-                         f"weight rose; the others' weighted AoI {_ms(others[0])} -> "
-                         f"{_ms(others[1])} ms")
+                         f"{ms(a)} -> {ms(b)} ms ({fall * 100:.0f} % lower) when its "
+                         f"weight rose; the others' weighted AoI {ms(others[0])} -> "
+                         f"{ms(others[1])} ms")
     return lines
 
 
@@ -140,16 +132,16 @@ def targets(results: MissionResults) -> list[str]:
             other = results.run(medium, system)
             if other is None:
                 continue
-            gain = _ratio(whole(other).weighted_aoi, ours)
+            gain = ratio(whole(other).weighted_aoi, ours)
             lines.append(f"- {medium}: {LABELS[system]} / WiSwarm over the mission "
-                         f"{_x(gain)} (target >= {TARGET_WHOLE}): "
+                         f"{times(gain)} (target >= {TARGET_WHOLE}): "
                          f"{'met' if gain >= TARGET_WHOLE else 'MISSED'}")
         oracle = results.run(medium, "oracle")
         if oracle is not None:
             for mine, best in zip(phase_figures(wiswarm), phase_figures(oracle), strict=True):
-                over = _ratio(mine.weighted_aoi, best.weighted_aoi)
+                over = ratio(mine.weighted_aoi, best.weighted_aoi)
                 lines.append(f"- {medium}, {mine.name}: WiSwarm / oracle throttle "
-                             f"{_x(over)} (target <= {TARGET_ORACLE}): "
+                             f"{times(over)} (target <= {TARGET_ORACLE}): "
                              f"{'met' if over <= TARGET_ORACLE else 'MISSED'}")
     for check in results.weight_checks:
         for robot, _, _, fall in weight_fall(check):
@@ -191,9 +183,9 @@ def plot(path: Path, results: MissionResults) -> None:
     for ax, medium in zip((row[0] for row in axes), media, strict=True):
         runs = [r for r in results.runs if r.medium == medium]
         for run in runs:
-            times, ages = age_series(run)
+            offsets, ages = age_series(run)
             style = "-" if run.system == "wiswarm" else "--" if run.system == "oracle" else "-"
-            ax.plot(times, [a * 1e3 for a in ages], style, color=SYSTEM_COLOURS[run.system],
+            ax.plot(offsets, [a * 1e3 for a in ages], style, color=SYSTEM_COLOURS[run.system],
                     lw=1.6 if run.system == "wiswarm" else 1.0, label=LABELS[run.system])
         ax.set_yscale("log")
         high = ax.get_ylim()[1]

@@ -26,13 +26,12 @@ import json
 import logging
 import multiprocessing
 import os
-import subprocess
-import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from wiswarm_zenoh.experiments.cli_processes import Cli, start_cli, stop_cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
 from wiswarm_zenoh.experiments.ros2_air_nodes import (
     CAMERA_HZ,
@@ -68,7 +67,6 @@ SWARM = "air"
 # (b)'s grid: every rate a 30 Hz camera throttled gives exactly (30 / k Hz) in 2 .. 15
 RATES = tuple(CAMERA_HZ / k for k in (15, 12, 10, 9, 8, 7, 6, 5, 4, 3, 2))
 SUPERVISE_PERIOD = 0.5
-STOP_TIMEOUT = 5.0
 
 
 @dataclass(frozen=True)
@@ -191,32 +189,17 @@ def follower_command(index: int) -> list[str]:
             "-e", robot_router(index), "--no-multicast-scouting"]
 
 
-Cli = tuple[str, subprocess.Popen[bytes]]  # what it runs, the process
-
-
 @contextlib.contextmanager
 def cli_processes(commands: Sequence[tuple[str, list[str]]], logs: Path) -> Iterator[list[Cli]]:
-    """``wiswarm <argv>`` in each namespace (``ip netns exec``), stderr to a file in
-    ``logs``; stopped with SIGTERM (killed if they do not end) on leaving."""
+    """``wiswarm <argv>`` in each namespace, stderr to a file in ``logs``; stopped on
+    leaving (``cli_processes``)."""
     procs: list[Cli] = []
     try:
         for ns, argv in commands:
-            what = " ".join(["wiswarm", *argv])
-            with (logs / f"{argv[0]}-{argv[4]}.log").open("wb") as err:
-                procs.append((what, subprocess.Popen(
-                    ["ip", "netns", "exec", ns, sys.executable, "-m", "wiswarm_zenoh.cli.main",
-                     *argv], stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)))
+            procs.append(start_cli(ns, argv, logs, f"{argv[0]}-{argv[4]}"))
         yield procs
     finally:
-        for _, proc in procs:
-            proc.terminate()
-        for what, proc in procs:
-            try:
-                proc.wait(STOP_TIMEOUT)
-            except subprocess.TimeoutExpired:
-                log.warning("%s did not stop: killing it", what)
-                proc.kill()
-                proc.wait()
+        stop_cli(procs)
 
 
 def _leader_counts(record: Path, t0: float, t1: float) -> tuple[int, int, float]:

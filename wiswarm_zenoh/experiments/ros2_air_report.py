@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from wiswarm_zenoh.experiments.report_cells import ms, ratio, times
 from wiswarm_zenoh.experiments.ros2_air import AirResults, CaseResult
 from wiswarm_zenoh.experiments.testbed_study_report import MEDIUM_COLUMNS
 from wiswarm_zenoh.testbed.spec import MAX_FRAME_BYTES, MTU
@@ -47,16 +48,7 @@ def floor_s(run: CaseResult) -> float:
     return run.duration / run.frames * (run.case.n / 2 + 1) if run.frames else math.nan
 
 
-def _ms(seconds: float) -> str:
-    return "-" if math.isnan(seconds) else f"{seconds * 1e3:.0f}"
 
-
-def _ratio(a: float, b: float) -> float:
-    return a / b if b > 0 else math.nan
-
-
-def _x(value: float) -> str:
-    return "-" if math.isnan(value) else f"{value:.2f}"
 
 
 def _mb(value: float) -> str:
@@ -90,10 +82,10 @@ def table(results: AirResults) -> list[str]:
     for medium, n, _, _, wiswarm in rows(results):
         c = math.nan if wiswarm is None else wiswarm.mean()
         for run in (r for r in results.runs if (r.medium, r.case.n) == (medium, n)):
-            lines.append(f"| {medium} | {n} | {case_name(run, results)} | {_ms(run.mean())} | "
-                         f"{_ms(run.mean('p95_aoi_s'))} | {run.mean('throughput_fps'):.1f} | "
+            lines.append(f"| {medium} | {n} | {case_name(run, results)} | {ms(run.mean())} | "
+                         f"{ms(run.mean('p95_aoi_s'))} | {run.mean('throughput_fps'):.1f} | "
                          f"{_mb(run.up_bytes)} / {_mb(run.down_bytes)} | "
-                         f"{_x(_ratio(run.mean(), c))} |")
+                         f"{times(ratio(run.mean(), c))} |")
     return lines
 
 
@@ -122,10 +114,10 @@ def floor_lines(results: AirResults) -> list[str]:
         floor = floor_s(c)
         up, down = needed_bytes(c)
         s = floor / (n / 2 + 1) * 1e3
-        lines.append(f"| {medium} | {n} | {s:.1f} | {_ms(floor)} | {_ms(c.mean())} | "
-                     f"{_x(_ratio(c.mean(), floor))} | {_mb(c.up_bytes)} / {_mb(c.down_bytes)}"
+        lines.append(f"| {medium} | {n} | {s:.1f} | {ms(floor)} | {ms(c.mean())} | "
+                     f"{times(ratio(c.mean(), floor))} | {_mb(c.up_bytes)} / {_mb(c.down_bytes)}"
                      f" | {_mb(up)} / {_mb(down)} | "
-                     f"{_x(_ratio(c.up_bytes + c.down_bytes, up + down))} |")
+                     f"{times(ratio(c.up_bytes + c.down_bytes, up + down))} |")
     return lines
 
 
@@ -138,18 +130,18 @@ def targets(results: AirResults) -> list[str]:
         mean = c.mean()
         checks = []
         if medium == "tbf":
-            over = _ratio(mean, floor_s(c))
-            checks.append((f"(c) {_x(over)} x the floor", over <= TARGET_FLOOR,
+            over = ratio(mean, floor_s(c))
+            checks.append((f"(c) {times(over)} x the floor", over <= TARGET_FLOOR,
                            f"<= {TARGET_FLOOR}"))
         if n >= 8 and direct is not None:
-            gain = _ratio(direct.mean(), mean)
+            gain = ratio(direct.mean(), mean)
             checks.append((f"(a)/(c) {gain:.1f}", gain >= TARGET_DIRECT, f">= {TARGET_DIRECT:g}"))
         if n >= 8 and throttled is not None:
-            gain = _ratio(throttled.mean(), mean)
+            gain = ratio(throttled.mean(), mean)
             checks.append((f"(b)/(c) {gain:.2f}", gain >= TARGET_THROTTLED,
                            f">= {TARGET_THROTTLED}"))
         up, down = needed_bytes(c)
-        off = abs(_ratio(c.up_bytes + c.down_bytes, up + down) - 1)
+        off = abs(ratio(c.up_bytes + c.down_bytes, up + down) - 1)
         checks.append((f"(c)'s bytes {off * 100:.0f} % off what polls and replies need",
                        off <= TARGET_BYTES, f"<= {TARGET_BYTES * 100:.0f} %"))
         for text, met, target in checks:
