@@ -74,7 +74,9 @@ def register_mission(studies: Any) -> None:
         "degrades, a robot's weight rises. Each system flies it once: "
         + "; ".join(f"{s}: {LABELS[s]}" for s in SYSTEMS) + ". The fixed rates are "
         "tuned first by short static runs of a phase (the fine search; kept in "
-        "records/tuned.json and reused by a later run with the same --out). Writes "
+        "records/tuned.json and reused by a later run with the same --out; so are the runs "
+        "flown there, reported with the new ones: fly it system by system, or go on "
+        "after a stop). Writes "
         "report.md (per phase and whole: mean, p95 and weighted mean AoI, bytes) and "
         "mission.png (AoI against time). The standard mission (4 minutes per system "
         "and medium, about an hour in all with the tuning) is --show-scenario's.")

@@ -19,6 +19,7 @@ by the fine search (``rate_search``); each tuned rate is kept in the output dire
 from __future__ import annotations
 
 import contextlib
+import json
 import logging
 import multiprocessing
 import os
@@ -141,6 +142,27 @@ class MissionRun:
     def at(self, offset: float) -> float:
         """Wall-clock time ``offset`` seconds into the mission."""
         return self.t0 + offset
+
+    def save(self, path: Path) -> None:
+        """All but the frames (the probe's CSV beside it) as JSON, to report it again."""
+        path.write_text(json.dumps({
+            "mission": repr(self.mission), "medium": self.medium, "system": self.system,
+            "t0": self.t0, "rates": self.rates, "load": self.load, "air": self.air,
+            "stints": [[s.robot, s.start, s.end] for s in self.stints]}))
+
+    @classmethod
+    def saved(cls, path: Path, mission: Mission) -> MissionRun | None:
+        """A run saved by ``save`` (its frames from the CSV of the same name), if it
+        flew ``mission`` as it is now; None otherwise."""
+        if not path.exists():
+            return None
+        data = json.loads(path.read_text())
+        if data["mission"] != repr(mission):
+            return None
+        return cls(data["medium"], data["system"], mission, data["t0"], tuple(data["rates"]),
+                   read_record(path.with_suffix(".csv")),
+                   [Stint(int(r), a, b) for r, a, b in data["stints"]],
+                   [(int(u), int(d)) for u, d in data["air"]], data["load"])
 
 
 def _topic(system: str, robot: int) -> str:
@@ -267,8 +289,7 @@ def run_mission(medium: Medium, name: str, mission: Mission, system: str,
     time."""
     if len(rates) != len(mission.phases):
         raise ValueError("rates must give one throttle per phase")
-    stem = workdir / f"{name}-{tag or system}"
-    probe = Path(f"{stem}.csv")
+    probe = run_file(workdir, name, tag or system).with_suffix(".csv")
     probe.unlink(missing_ok=True)
     t0 = time.time() + warmup
     first = mission.phases[0]
@@ -301,8 +322,15 @@ def run_mission(medium: Medium, name: str, mission: Mission, system: str,
             children.stop(["probe"])
         finally:
             swarm.land_all()
-    return MissionRun(name, system, mission, t0, tuple(rates), read_record(probe),
-                      swarm.stints, air, os.getloadavg()[0])
+    run = MissionRun(name, system, mission, t0, tuple(rates), read_record(probe),
+                     swarm.stints, air, os.getloadavg()[0])
+    run.save(probe.with_suffix(".json"))
+    return run
+
+
+def run_file(workdir: Path, medium: str, tag: str) -> Path:
+    """Where a run of ``tag`` (a system, or a static run's name) on ``medium`` is saved."""
+    return workdir / f"{medium}-{tag}.json"
 
 
 def _fly(medium: Medium, swarm: _Swarm, t0: float,

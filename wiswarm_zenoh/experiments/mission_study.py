@@ -5,7 +5,9 @@ by static runs of that phase alone (``tune_seconds`` each), the rate chosen by
 ``search`` (the fine search of ``rate_search``) on their weighted mean AoI. (b1) takes
 the first phase's rate, (b2) the rate of the phase with the most robots, (b*) each
 phase's own. Rates tuned before in the same output directory (``tuned.json``) are
-reused: the search is the long part.
+reused: the search is the long part. So are runs flown before there (a JSON beside each
+run's CSV) of the same mission: they are reported with the new ones, so a mission can be
+flown system by system, or go on after a stop.
 
 With a weight change in the mission and WiSwarm among the systems, the phase where a
 weight first moves is also run statically under WiSwarm twice, with the weights before
@@ -20,7 +22,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from wiswarm_zenoh.experiments.mission import MissionConfig, MissionRun, media, run_mission
+from wiswarm_zenoh.experiments.mission import (
+    SYSTEMS,
+    MissionConfig,
+    MissionRun,
+    media,
+    run_file,
+    run_mission,
+)
 from wiswarm_zenoh.experiments.mission_metrics import PhaseFigures, phase_figures
 from wiswarm_zenoh.experiments.mission_scenario import Mission, Phase
 
@@ -68,7 +77,7 @@ def tuning_key(medium: str, phase: Phase) -> str:
     return json.dumps([medium, *phase.conditions()])
 
 
-def _static(phase: Phase, seconds: float) -> Mission:
+def static(phase: Phase, seconds: float) -> Mission:
     """A mission of ``phase``'s conditions alone."""
     return Mission(f"static {phase.name}", (replace(phase, start=0.0, seconds=seconds),))
 
@@ -86,9 +95,17 @@ def run_study(config: MissionConfig, workdir: Path, search: Search,
             def once(phase: Phase, system: str, seconds: float, rate: float | None,
                      tag: str, name: str = name) -> PhaseFigures:
                 with medium_for() as medium:
-                    run = run_mission(medium, name, _static(phase, seconds), system, [rate],
+                    run = run_mission(medium, name, static(phase, seconds), system, [rate],
                                       workdir, config.tune_warmup, tag=tag)
                 return phase_figures(run)[0]
+
+            def flown(system: str, tag: str, mission: Mission, name: str = name
+                      ) -> MissionRun | None:
+                """A run of an earlier invocation with the same output directory."""
+                run = MissionRun.saved(run_file(workdir, name, tag), mission)
+                if run is not None:
+                    say(f"{name}: {tag}: as flown before ({run_file(workdir, name, tag)})")
+                return run
 
             def tune(phase: Phase, name: str = name) -> float:
                 key = tuning_key(name, phase)
@@ -110,24 +127,31 @@ def run_study(config: MissionConfig, workdir: Path, search: Search,
                 cache.write_text(json.dumps(tuned, indent=1))
                 return tuning.best
 
-            for system in config.systems:
-                rates = rates_for(system, mission, tune)
+            for system in SYSTEMS:
+                run = flown(system, system, mission)
+                if run is None and system in config.systems:
+                    rates = rates_for(system, mission, tune)
 
-                def entered(phase: str, system: str = system, name: str = name) -> None:
-                    say(f"{name}: {system}: {phase}")
+                    def entered(phase: str, system: str = system, name: str = name) -> None:
+                        say(f"{name}: {system}: {phase}")
 
-                with medium_for() as medium:
-                    run = run_mission(medium, name, mission, system, rates, workdir,
-                                      config.warmup, entered)
-                results.runs.append(run)
-                say(f"{name}: {system} done")
+                    with medium_for() as medium:
+                        run = run_mission(medium, name, mission, system, rates, workdir,
+                                          config.warmup, entered)
+                    say(f"{name}: {system} done")
+                if run is not None:
+                    results.runs.append(run)
             changed = first_weight_change(mission)
-            if changed is not None and "wiswarm" in config.systems:
+            if changed is not None and "wiswarm" in {r.system for r in results.runs}:
+                def weighed(phase: Phase, tag: str) -> PhaseFigures:
+                    saved = flown("wiswarm", tag, static(phase, config.tune_seconds))
+                    return phase_figures(saved)[0] if saved is not None else \
+                        once(phase, "wiswarm", config.tune_seconds, None, tag)
+
                 before, after = changed
                 results.weight_checks.append(WeightCheck(
-                    name, after.name,
-                    once(before, "wiswarm", config.tune_seconds, None, "weights-before"),
-                    once(after, "wiswarm", config.tune_seconds, None, "weights-after"),
+                    name, after.name, weighed(before, "weights-before"),
+                    weighed(after, "weights-after"),
                     tuple(r for r in after.robots if after.weight_of(r) > before.weight_of(r))))
     return results
 
