@@ -49,6 +49,21 @@ def test_noise_of_a_few_percent_still_lands_near_the_best() -> None:
         assert cliff(10.0)(best) <= 1.15 * cliff(10.0)(10.0), (seed, best)
 
 
+def test_overloaded_rates_differ_by_noise_alone_and_the_search_leaves_them() -> None:
+    """Started above the cliff (the share overestimated), where every rate's age is
+    seconds of noise: the walk goes down first, to the rates that fit."""
+    for seed in range(20):
+        rng = random.Random(seed)
+
+        def overloaded(rate: float, rng: random.Random = rng) -> float:
+            return 0.5 / rate + 0.06 if rate <= 4.7 else rng.uniform(1.0, 6.0)
+
+        costs = RateCosts(overloaded)
+        best = fine_search(costs, 5.07)  # the sim's WiFi at N = 14: cliff at 4.7 fps
+        assert 4.7 / (1 + 2 * STEP) <= best <= 4.7, (seed, costs.tried)
+        assert overloaded(best) <= 1.05 * overloaded(4.7)
+
+
 def test_a_run_that_delivered_nothing_is_worse_than_any() -> None:
     def cost(rate: float) -> float:
         return math.nan if rate > 5.0 else 1.0 / rate
