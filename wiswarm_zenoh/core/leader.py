@@ -19,6 +19,7 @@ from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
 from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
 from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
+from wiswarm_zenoh.core.sources import worth_waiting
 from wiswarm_zenoh.core.wire import (
     Poll,
     decode_reply,
@@ -75,6 +76,8 @@ class Leader:
         self._pick: Pick | None = None
         self._picked_for = 0  # the poll a pick was last tried for
         self._answered_seq = 0  # the poll answered last
+        self._hold_until = -math.inf  # no poll before then: a phased source's next update
+        self._held = False  # a poll was held since the last one sent: none is held again
         self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
         self.site_links = SiteLinks()
         in_flight = self.config.in_flight
@@ -271,9 +274,10 @@ class Leader:
 
     def next_poll(self, now: float) -> PollRequest | None:
         """The poll to send now, put in flight; None while ``config.in_flight`` are out
-        (then, with one out, the pick for after it is made), nobody is left to poll, or
-        no poll can find anything new before ``get_timer()`` (every source paced and
-        none due, no probe due: ``sources``)."""
+        (then, with one out, the pick for after it is made), nobody is left to poll, no
+        poll can find anything new before ``get_timer()`` (every source paced and none
+        due, no probe due: ``sources``), or the poll picked is worth holding until its
+        phased source's next update is ready (``_holds``; ``get_timer()`` says when)."""
         out, allowed = self._flights, self.polls_allowed
         if len(out) >= allowed or len(out) >= len(self.table.ids):
             if allowed == 1:
@@ -281,13 +285,22 @@ class Leader:
             return None
         if self._waits_for_sources(now):
             return None
+        if self._hold_until > -math.inf:
+            if now < self._hold_until:
+                return None
+            self._hold_until = -math.inf
         pick, self._pick = self._pick, None
         if not out and pick is not None and pick.poll_seq == self._answered_seq \
                 and still_holds(pick, self.table, now):
+            fast, choice = True, pick.choice
+        else:
+            fast, choice = False, choose(self.table, self.policy, self.slot, now,
+                                         {self.table.index(f) for f in out})
+        if allowed == 1 and not out and self.table.known_intervals and self._holds(choice, now):
+            return None
+        if fast:
             self.fast_polls += 1
-            return self._start_poll(pick.choice, now, allowed == 1)
-        return self._start_poll(choose(self.table, self.policy, self.slot, now,
-                                       {self.table.index(f) for f in out}), now, allowed == 1)
+        return self._start_poll(choice, now, allowed == 1)
 
     def next_event(self) -> Event | None:
         """What happened, oldest first; None when nothing is left."""
@@ -295,10 +308,13 @@ class Leader:
 
     def get_timer(self) -> float | None:
         """When ``handle_timer`` is due: the earliest deadline of the polls out, or,
-        while another poll may go out, when the first source or probe is due."""
+        while another poll may go out, when the first source or probe is due, or when a
+        poll held (``next_poll``) goes out."""
         flights = self._flights
         wake = math.inf
-        if self._waits_for_sources(-math.inf) \
+        if self._hold_until > -math.inf:  # (none out)
+            wake = self._hold_until
+        elif self._waits_for_sources(-math.inf) \
                 and len(flights) < min(self.polls_allowed, len(self.table.ids)):
             wake = self.table.wake_at()
         if flights:
@@ -327,6 +343,22 @@ class Leader:
         table = self.table
         return self._pacing and table.unfresh > 0 and table.silent < len(table) \
             and table.wake_at() > now
+
+    def _holds(self, i: int, now: float) -> bool:
+        """Whether the poll of the follower at ``i``, the only one to go out, is better
+        sent when its phased source's next update is ready (``sources.worth_waiting``);
+        then nothing goes out until ``_hold_until``. Once per poll: the pick made then
+        is sent whatever its phase."""
+        table = self.table
+        pace = table.peers[table.ids[i]].pace
+        if self._held or not self._pacing or not pace.phased or pace.paced:
+            return False
+        wait = worth_waiting(now, table.tau[i], table.ready[i], table.interval[i],
+                             table.w[i] * table.p[i], sum(table.w))
+        if wait <= 0.0:
+            return False
+        self._held, self._hold_until = True, now + wait
+        return True
 
     def _peer(self, follower: str) -> Peer:
         try:
@@ -379,6 +411,7 @@ class Leader:
         (steady if ``one_allowed`` and it is the only one out, to a follower answering)."""
         follower = self.table.ids[choice]
         peer = self.table.peers[follower]
+        self._held, self._hold_until = False, -math.inf
         self._poll_seq += 1
         self.polls += 1
         peer.polled()

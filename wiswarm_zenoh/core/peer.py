@@ -98,7 +98,7 @@ class Peer:
         self.timing.answered(max(now - sent_at, 1e-6))
         self._record(True, now)
         self.clock.add(sent_at, reply.received_at, reply.sent_at, now)
-        events += self._take(reply.fragment, sent_at, now)
+        events += self._take(reply.fragment, sent_at, reply.received_at, now)
         self._changed()
         return events
 
@@ -213,8 +213,10 @@ class Peer:
                 return entry[1]
         return None
 
-    def _take(self, frag: FragmentData | None, sent_at: float, now: float) -> list[Event]:
-        """An answer's fragment: into reassembly; an update it completes is delivered if
+    def _take(self, frag: FragmentData | None, sent_at: float, received_at: float,
+              now: float) -> list[Event]:
+        """An answer's fragment: into reassembly (an update's first: its source's phase,
+        ``SourcePace.reached``); an update it completes is delivered if
         its time-stamp can be true (not ahead of the reply's arrival by more than the
         clock estimate's error: the poll's round trip, and some slack), its checksum
         holds and it is fresher than any before (its time-stamp on the leader's clock
@@ -228,6 +230,8 @@ class Peer:
         except WireError as exc:
             return self._ask_afresh(str(exc))
         self.ack, self.want = (frag.update_seq, frag.index), "next"
+        if frag.index == 0 and self.pace.skips:
+            self.pace.reached(sent_at, received_at, frag.generated_at, frag.count == 1)
         if whole is None:
             return []
         generated_at = self.clock.to_leader(frag.generated_at)

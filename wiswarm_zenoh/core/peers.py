@@ -29,17 +29,19 @@ PLAIN_LOOPS_MAX = 64  # followers up to which plain loops beat numpy (its cost p
 
 
 class PeerTable:
-    """Followers in join order, with the columns (w, p, tau, due, interval, probe_at) the
-    leader reads.
+    """Followers in join order, with the columns (w, p, tau, due, interval, ready,
+    probe_at) the leader reads.
 
     ``w`` is each follower's weight raised to ``weight_floor`` (with ``price_by_time``,
     per unit of its polls' expected time: ``PollTiming.price``); ``tau`` its
     freshest delivery (for a source taken as always fresh, its last "nothing new" answer
-    too: polling it sooner cannot lower its age); ``due`` and ``interval`` its
+    too: polling it sooner cannot lower its age); ``due``, ``interval`` and ``ready`` its
     source's pace (``sources``: -inf and 0 for a source taken as always fresh, +inf for a
     silent follower, whose probes ``probe_at`` times: when it is due for one, +inf if
-    not silent); ``silent`` counts those with p = 0, so that the common case (none)
-    costs the scheduler no pass over the columns.
+    not silent; ``ready`` is a phased source's, ``tau`` for any other); ``silent``
+    counts those with p = 0 and ``unfresh`` and ``known_intervals`` those whose due is not -inf
+    or whose interval is known, so that the common case (none) costs the scheduler no
+    pass over the columns.
     """
 
     def __init__(self, weight_floor: float = 0.0, price_by_time: bool = False,
@@ -51,7 +53,8 @@ class PeerTable:
         self.ids: list[str] = []
         self.peers: dict[str, Peer] = {}
         self.silent = 0
-        self.unfresh = 0  # followers whose due is not -inf (paced or silent)
+        self.unfresh = 0  # followers whose due is not -inf (paced, phased or silent)
+        self.known_intervals = 0  # followers whose interval column is known (paced or phased)
         self._index: dict[str, int] = {}
         self._watched = -1  # the row whose changes leave ``disturbed`` as it is
         self.disturbed = True
@@ -60,6 +63,7 @@ class PeerTable:
         self.tau = array("d")
         self.due = array("d")
         self.interval = array("d")
+        self.ready = array("d")
         self.probe_at = array("d")
 
     def __len__(self) -> int:
@@ -70,11 +74,13 @@ class PeerTable:
         """Few enough followers that plain loops over the columns beat numpy."""
         return len(self.ids) <= PLAIN_LOOPS_MAX
 
-    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
-        """numpy views of w, p, tau, due and interval (no copy: drop them before the next
-        add or remove)."""
+    def arrays(self) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray,
+                              FloatArray]:
+        """numpy views of w, p, tau, due, interval and ready (no copy: drop them before
+        the next add or remove)."""
         return (np.frombuffer(self.w), np.frombuffer(self.p), np.frombuffer(self.tau),
-                np.frombuffer(self.due), np.frombuffer(self.interval))
+                np.frombuffer(self.due), np.frombuffer(self.interval),
+                np.frombuffer(self.ready))
 
     def index(self, follower: str) -> int:
         """Where ``follower`` is in the columns."""
@@ -88,7 +94,7 @@ class PeerTable:
         self.peers[follower] = peer
         for column, placeholder in ((self.w, 0.0), (self.p, 1.0), (self.tau, 0.0),
                                     (self.due, -math.inf), (self.interval, 0.0),
-                                    (self.probe_at, 0.0)):
+                                    (self.ready, 0.0), (self.probe_at, 0.0)):
             column.append(placeholder)
         peer.on_change = self._sync
         self._sync(peer)
@@ -100,9 +106,12 @@ class PeerTable:
         peer.on_change = unwatched
         self.silent -= peer.silent
         self.unfresh -= self.due[i] != -math.inf
+        self.known_intervals -= self.interval[i] > 0.0
         del self.ids[i], self.peers[follower]
         self._index = {fid: j for j, fid in enumerate(self.ids)}
-        del self.w[i], self.p[i], self.tau[i], self.due[i], self.interval[i], self.probe_at[i]
+        for column in (self.w, self.p, self.tau, self.due, self.interval, self.ready,
+                       self.probe_at):
+            del column[i]
         self.disturbed = True
 
     def watch(self, follower: str) -> None:
@@ -125,13 +134,18 @@ class PeerTable:
         self.p[i] = p
         pace = peer.pace
         paced = self.pace_sources and pace.paced
+        phased = self.pace_sources and not paced and pace.phased
         # not paced: aged from its last "nothing new" answer too (polling it sooner
         # cannot lower its age); paced: its pace says when a poll can
-        self.tau[i] = peer.aoi.tau if paced else max(peer.aoi.tau, peer.idle_since)
-        due = math.inf if p <= 0.0 else pace.due if paced else -math.inf
+        tau = self.tau[i] = peer.aoi.tau if paced else max(peer.aoi.tau, peer.idle_since)
+        due = math.inf if p <= 0.0 else pace.due if paced \
+            else pace.ready + pace.interval if phased else -math.inf
         self.unfresh += (due != -math.inf) - (self.due[i] != -math.inf)
         self.due[i] = due
-        self.interval[i] = pace.interval if paced else 0.0
+        interval = pace.interval if paced or phased else 0.0
+        self.known_intervals += (interval > 0.0) - (self.interval[i] > 0.0)
+        self.interval[i] = interval
+        self.ready[i] = pace.ready if phased else tau
         self.probe_at[i] = peer.probe_at if p <= 0.0 else math.inf
 
     def wake_at(self) -> float:

@@ -52,18 +52,22 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
         tau: Sequence[float] = table.tau
         due: Sequence[float] = table.due
         interval: Sequence[float] = table.interval
-        if not table.unfresh:
+        ready: Sequence[float] = table.ready
+        if not (table.unfresh or table.known_intervals):
             if live is not None:
                 w, p, tau = ([column[i] for i in live] for column in (w, p, tau))
             return policy.choose_in_lists(w, p, fresh_ages_in_slots(tau, now, slot))
         if live is not None:
-            w, p, tau, due, interval = ([column[i] for i in live]
-                                        for column in (w, p, tau, due, interval))
-        return policy.choose_in_lists(w, p, ages_in_slots(tau, due, interval, now, slot))
-    wa, pa, taua, duea, intervala = table.arrays()
+            w, p, tau, due, interval, ready = ([column[i] for i in live] for column
+                                               in (w, p, tau, due, interval, ready))
+        return policy.choose_in_lists(w, p, ages_in_slots(tau, due, interval, ready, now,
+                                                          slot))
+    wa, pa, taua, duea, intervala, readya = table.arrays()
     if live is not None:
-        wa, pa, taua, duea, intervala = (a[live] for a in (wa, pa, taua, duea, intervala))
-    return policy.choose(wa, pa, array_ages_in_slots(taua, duea, intervala, now, slot))
+        wa, pa, taua, duea, intervala, readya = (
+            a[live] for a in (wa, pa, taua, duea, intervala, readya))
+    return policy.choose(wa, pa, array_ages_in_slots(taua, duea, intervala, readya, now,
+                                                     slot))
 
 
 def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int,
@@ -81,8 +85,9 @@ def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int
         best = max(values)
         choice = values.index(best)  # the first of equals, as ``choose`` takes it
     else:
-        wa, pa, taua, duea, intervala = table.arrays()
-        indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, at, slot))
+        wa, pa, taua, duea, intervala, readya = table.arrays()
+        indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, readya,
+                                                           at, slot))
         indices[polled] = -np.inf
         choice = int(indices.argmax())
         best = float(indices[choice])
@@ -98,14 +103,14 @@ def still_holds(pick: Pick, table: PeerTable, now: float) -> bool:
     if now > pick.at + pick.slot or table.disturbed:
         return False
     i = pick.polled
-    ages = ages_in_slots([table.tau[i]], [table.due[i]], [table.interval[i]], pick.at,
-                         pick.slot)
+    ages = ages_in_slots([table.tau[i]], [table.due[i]], [table.interval[i]],
+                         [table.ready[i]], pick.at, pick.slot)
     value = pick.policy.indices([table.w[i]], [table.p[i]], ages)[0]
     return value < pick.value or (value == pick.value and i > pick.choice)
 
 
 def _ages(table: PeerTable, at: float, slot: float) -> list[float]:
     """Every follower's age in slots at ``at`` (plain floats)."""
-    if not table.unfresh:
+    if not (table.unfresh or table.known_intervals):
         return fresh_ages_in_slots(table.tau, at, slot)
-    return ages_in_slots(table.tau, table.due, table.interval, at, slot)
+    return ages_in_slots(table.tau, table.due, table.interval, table.ready, at, slot)
