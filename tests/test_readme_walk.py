@@ -139,8 +139,8 @@ def test_a_short_testbed_study_runs_quietly(tmp_path: Path) -> None:
         check_available()
     except TestbedUnavailable as exc:
         pytest.skip(f"testbed unavailable: {exc}")
-    study = Node(["experiment", "testbed", "--ns", "2", "--rates", "25", "--duration", "2",
-                  "--warmup", "1", "--out", str(tmp_path / "study")])
+    study = Node(["experiment", "testbed", "--ns", "2", "--search", "grid", "--rates", "25",
+                  "--duration", "2", "--warmup", "1", "--out", str(tmp_path / "study")])
     assert study.finish(240.0) == 0, study.lines[-8:]
     study.quiet()
     gains = (tmp_path / "study" / "gains.md").read_text()

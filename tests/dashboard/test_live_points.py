@@ -42,7 +42,8 @@ def live(sessions: Sessions, port: int, study: str, baselines: tuple[str, ...]
 
 def test_a_sweep_by_n_is_the_sweep_and_publishes_its_points_after_each_n(
         sessions: Sessions, port: int) -> None:
-    config = SweepConfig(ns=(2, 3), rates=(10.0,), fixed_rate=50.0, batches=1, duration=1.0)
+    config = SweepConfig(ns=(2, 3), rates=(10.0,), fixed_rate=50.0, batches=1, duration=1.0,
+                         search="grid")  # the grid's runs alone: the same N by N
     points, reader = live(sessions, port, "sweep", ("udp", "tcp"))
     progress: list[tuple[int, int]] = []
     results = sweep_by_n(config, lambda part, p: run_sweep(part, 1, p),
@@ -67,7 +68,8 @@ def outcome(system: str, n: int, rate: float | None, aoi: float) -> RunOutcome:
 
 def test_a_testbed_study_by_n_merges_its_parts_and_stops_where_one_was_cut(
         sessions: Sessions, port: int) -> None:
-    config = StudyConfig(ns=(2, 4, 6), baselines=("udp",), rates=(10.0, 50.0), duration=1.0)
+    config = StudyConfig(ns=(2, 4, 6), baselines=("udp",), rates=(10.0, 50.0), duration=1.0,
+                         search="grid")
     points, reader = live(sessions, port, "testbed", ("udp",))
     parts: list[tuple[int, ...]] = []
 

@@ -77,7 +77,7 @@ def test_sweep_writes_csv_figures_and_the_gains_table(
 ) -> None:
     out = tmp_path / "sweep"
     argv = ["experiment", "sweep", "--ns", "2,8", "--rates", "5,50", "--batches", "2",
-            "--duration", "1.5", "--jobs", "1", "--out", str(out)]
+            "--duration", "1.5", "--jobs", "1", "--out", str(out), "--search", "grid"]
     assert cli.main(argv) == 0
     captured = capsys.readouterr()
     assert "20/20 runs" in captured.err  # 2 N x 2 batches x (WiSwarm + 2 baselines x 2 rates)
@@ -93,4 +93,28 @@ def test_sweep_writes_csv_figures_and_the_gains_table(
     table = (out / "gains.md").read_text()
     assert "| 8 | udp@50 | 50 |" in table
     assert "| 8 | tcp-opt |" in table
+    assert "| 8 | tcp | 9.86 | 5: " in table  # the grid's search: its rates, from the share
     assert table in captured.out
+
+
+def test_the_sweep_searches_each_best_rate_finely_from_the_share(tmp_path: Path) -> None:
+    """By default each baseline's best rate at each N is the fine search's: off the grid,
+    its rates listed in gains.md from the air's share, in runs.csv beside the grid's."""
+    out = tmp_path / "sweep"
+    argv = ["experiment", "sweep", "--ns", "8", "--rates", "5", "--batches", "1",
+            "--duration", "20", "--jobs", "2", "--out", str(out)]
+    assert cli.main(argv) == 0
+    with (out / "runs.csv").open() as fh:
+        rates = {(r["system"], float(r["rate"] or 0)) for r in csv.DictReader(fh)}
+    with (out / "summary.csv").open() as fh:
+        best = {r["label"]: float(r["rate"]) for r in csv.DictReader(fh)
+                if r["label"].endswith("-opt")}
+    assert best.keys() == {"udp-opt", "tcp-opt"}
+    for label, rate in best.items():
+        assert rate not in (5.0, 50.0) and (label.removesuffix("-opt"), rate) in rates
+    searched = {system for system, rate in rates if rate not in (0.0, 5.0, 50.0)}
+    assert searched == {"udp", "tcp"}
+    table = (out / "gains.md").read_text()
+    assert "by the fine search" in table
+    line = next(line for line in table.splitlines() if line.startswith("| 8 | udp | 9.86 | "))
+    assert "9.86: " in line  # the share, tried

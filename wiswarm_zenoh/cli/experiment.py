@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, study_by_n
-from wiswarm_zenoh.experiments.sweep import PAPER_NS
+from wiswarm_zenoh.experiments.sweep import PAPER_NS, PAPER_RATES
 from wiswarm_zenoh.experiments.testbed_study import BASELINES, StudyConfig, run_study
 from wiswarm_zenoh.experiments.testbed_study_report import write_study
 from wiswarm_zenoh.options import (
@@ -71,10 +71,12 @@ def add_study_arguments(parser: argparse.ArgumentParser, ns: tuple[int, ...],
 
 
 def _study_config(args: argparse.Namespace) -> StudyConfig:
+    if args.rates is not None and args.search != "grid":
+        raise UsageError("--rates is the grid of --search grid: give both, or neither")
     try:
         return StudyConfig(
-            ns=args.ns, baselines=args.baselines,
-            rates=args.rates, fixed_rate=args.fixed_rate, batches=args.batches,
+            ns=args.ns, baselines=args.baselines, search=args.search,
+            rates=args.rates or PAPER_RATES, fixed_rate=args.fixed_rate, batches=args.batches,
             duration=args.duration, warmup=args.warmup, frame_bytes=args.frame_bytes,
             channel=channel_spec(args), medium=wifi_spec(args, max(args.ns)),
             parallel=args.parallel or (1 if args.medium == "wifi" else 2),
@@ -110,10 +112,11 @@ def register_testbed(studies: Any) -> None:
         description="WiSwarm against the push baselines (Zenoh put, UDP, TCP) over a tbf-"
         "shaped channel between network namespaces, or ns-3's WiFi (--medium wifi) (Linux, "
         "root): for each N, WiSwarm, each "
-        "baseline at --fixed-rate and at its best rate of --rates (found by a search). "
+        "baseline at --fixed-rate and at its best rate (found by --search: finely from the "
+        "channel's share, or on the paper's grid). "
         "Writes CSVs, figures with the simulator's model of the channel beside, gains.md.")
     add_study_arguments(testbed, PAPER_NS, duration=30.0, warmup=5.0)
-    add_rate_grid(testbed, "the baselines'")
+    add_rate_grid(testbed, "the baselines'", searched="--search grid's rates")
     testbed.add_argument("--batches", type=positive_int(), default=1,
                          help="batches per point (default 1; the paper: 4)")
     testbed.add_argument("--frame-bytes", type=positive_int(), default=FRAME_BYTES,

@@ -12,7 +12,13 @@ from typing import Any
 from wiswarm_zenoh.core.policies import POLICIES
 from wiswarm_zenoh.dashboard.live_points import add_live_arguments, open_live, sweep_by_n
 from wiswarm_zenoh.experiments.sweep import BASELINES as SWEEP_BASELINES
-from wiswarm_zenoh.experiments.sweep import PAPER_NS, SweepConfig, run_sweep, summarise
+from wiswarm_zenoh.experiments.sweep import (
+    PAPER_NS,
+    PAPER_RATES,
+    SweepConfig,
+    run_sweep,
+    summarise,
+)
 from wiswarm_zenoh.experiments.sweep_report import write_report
 from wiswarm_zenoh.options import (
     COUNTS,
@@ -111,7 +117,7 @@ def _link(args: argparse.Namespace) -> int:
 
 def _sweep(args: argparse.Namespace) -> int:
     config = _build(
-        SweepConfig, ns=args.ns, rates=args.rates,
+        SweepConfig, ns=args.ns, rates=args.rates or PAPER_RATES, search=args.search,
         fixed_rate=args.fixed_rate, batches=args.batches, duration=args.duration,
         seed=args.seed, frame_bytes=args.frame_bytes,
     )
@@ -196,7 +202,8 @@ def register_sweep(studies: Any) -> None:
     sweep = studies.add_parser("sweep", help="the stationary study: AoI against N and rate")
     sweep.add_argument("--ns", type=COUNTS, default=PAPER_NS,
                        help="numbers of UAVs (default 2,4,...,14)")
-    add_rate_grid(sweep, "the baselines'")
+    add_rate_grid(sweep, "the baselines'", searched="rates every baseline runs at (the AoI against "
+                  "rate figure; --search grid's choices)")
     sweep.add_argument("--batches", type=positive_int(), default=4,
                        help="batches per point (default 4)")
     sweep.add_argument("--duration", type=positive_float(), default=240.0,

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from wiswarm_zenoh.experiments.sweep import BASELINES, METRICS, Point, SweepConfig
+from wiswarm_zenoh.experiments.sweep import BASELINES, METRICS, Point, SweepConfig, searched
 from wiswarm_zenoh.sim.metrics import WifiResult
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn, not with the module
@@ -17,6 +17,9 @@ if TYPE_CHECKING:  # matplotlib is imported when a figure is drawn, not with the
     from matplotlib.lines import Line2D
 
 MODEL = " (model)"  # the legend's suffix of a model's curve
+SEARCH_NAMES = {"fine": "the fine search (golden-section on the rate, to 5 %)",
+                "grid": "the best of the grid of whole frames per second"}
+SEARCH_HEAD = "share (fps) | rates tried, fps: mean AoI (ms) | best (fps) |"
 
 # The paper's reported gains of WiSwarm (Section IV-A), where it states them.
 PAPER_GAINS: dict[tuple[int, str, str], str] = {
@@ -197,6 +200,27 @@ def gains_table(points: Sequence[Point], fixed_rate: float, ns: Sequence[int],
     return "\n".join(lines) + "\n"
 
 
+def search_cells(share: float, tried: Sequence[tuple[float, float]], best: float | None
+                 ) -> str:
+    """A best-rate search's cells in a report's table (``SEARCH_HEAD``): the share it
+    started from, each rate it ran in order with its mean AoI, its choice (None: it was
+    cut short)."""
+    runs = ", ".join(f"{rate:.3g}: {aoi * 1e3:.0f}" for rate, aoi in tried)
+    return f"{share:.3g} | {runs} | {'-' if best is None else f'{best:.3g}'} |"
+
+
+def search_lines(config: SweepConfig, results: Sequence[WifiResult]) -> list[str]:
+    """Each baseline's search at each N: its rates in order and its choice."""
+    lines = [f"| N | baseline | {SEARCH_HEAD}", "|---|---|---|---|---|"]
+    for n in config.ns:
+        for system in BASELINES:
+            tried = searched(config, results, system, n)
+            best = min(tried, key=lambda run: run[1])[0]
+            lines.append(f"| {n} | {system} | "
+                         f"{search_cells(config.share_fps(n), tried, best)}")
+    return lines
+
+
 def write_report(out: Path, config: SweepConfig, results: Sequence[WifiResult],
                  points: Sequence[Point]) -> list[Path]:
     """Write every file of the sweep into ``out``; returns their paths."""
@@ -219,7 +243,14 @@ def write_report(out: Path, config: SweepConfig, results: Sequence[WifiResult],
         f"# WiSwarm against WiFi push baselines (simulated, {config.batches} batches of "
         f"{config.duration:g} s, {config.frame_bytes} B frames)\n\n"
         "Gain = baseline / WiSwarm for AoI, WiSwarm / baseline for throughput; "
-        "`-opt` = the grid rate with the lowest mean AoI at that N.\n\n"
+        f"`-opt` = the rate with the lowest mean AoI at that N, by {SEARCH_NAMES[config.search]}"
+        ".\n\n"
     )
-    files[-1].write_text(header + gains_table(points, config.fixed_rate, table_ns))
+    searches = "\n".join([
+        "## Each baseline's best rate", "",
+        f"By {SEARCH_NAMES[config.search]}; the share: 1 / (N x a lone frame's airtime), "
+        "where the search starts. Mean AoI over the batches.", "",
+        *search_lines(config, results), ""])
+    files[-1].write_text(header + gains_table(points, config.fixed_rate, table_ns) + "\n"
+                         + searches)
     return files

@@ -1,13 +1,16 @@
 """The paper's stationary study (Section IV-A) on real processes over the emulated channel.
 
 For every N: WiSwarm, each baseline at the fixed rate (50 fps), and each baseline at its
-best rate of the paper's grid. The best rate is found by a search, not by running the
-whole grid: a baseline's mean AoI against its rate falls while the channel keeps up
-(fresher frames) and climbs once the offered load exceeds the channel's share of each
-follower (queues build), so it is unimodal. The search starts at the grid rate just
-below that share (link rate / (N x frame bits)), measures the next rate up, and walks
-towards the better side until a rate is worse than the one before it: a bracket of
-three neighbours, usually two to four runs instead of ten.
+best rate, found by a search, not by running a whole grid: a baseline's mean AoI against
+its rate falls while the channel keeps up (fresher frames) and climbs once the offered
+load exceeds the channel's share of each follower (queues build), so it is unimodal.
+The search (``search``) is ``fine`` by default: ``rate_search.fine_search`` from that
+share (link rate / (N x frame bits)), until the best rate's tried neighbours are within
+5 % of it (about seven runs). A grid of whole frames per second misses the best, which
+lies just below the cliff: at N = 14 on 20 Mbit/s the share is 2.1 fps and 3 fps
+already fills the channel. ``grid`` is the paper's way (``best_of_grid``), kept to
+reproduce it: from the grid rate just below the share, walking to the better neighbour
+until a rate is worse (two to four runs).
 
 With ``medium`` set, every run goes over ns-3's WiFi medium instead, a station per
 follower (``wifi``), built once per worker with as many stations as the largest N.
@@ -33,6 +36,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from wiswarm_zenoh.experiments.rate_search import fine_search
 from wiswarm_zenoh.experiments.sweep import PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.channel import Channel
@@ -56,7 +60,9 @@ FRAME_OVERHEAD = 1.04  # headers per byte of frame on the wire (Zenoh, TCP/IP, E
 def share_fps(rate_bps: float, n: int, frame_bytes: int) -> float:
     """Frames per second per follower that a link of ``rate_bps`` carries for N."""
     return rate_bps / (n * frame_bytes * 8 * FRAME_OVERHEAD)
-SEARCH_RUNS = 3  # a typical search's runs, for the progress estimate
+
+
+SEARCH_RUNS = {"fine": 7, "grid": 3}  # a typical search's runs, for the progress estimate
 JOIN_PERIOD = 0.2  # seconds between checks that the workers ended
 
 
@@ -66,8 +72,9 @@ class StudyConfig:
 
     ns: tuple[int, ...] = PAPER_NS
     baselines: tuple[str, ...] = BASELINES
-    rates: tuple[float, ...] = PAPER_RATES
+    rates: tuple[float, ...] = PAPER_RATES  # the grid of search "grid"
     fixed_rate: float = 50.0
+    search: str = "fine"  # how a baseline's best rate is found: fine or grid
     batches: int = 1
     duration: float = 30.0
     warmup: float = 5.0
@@ -77,7 +84,7 @@ class StudyConfig:
     medium: WifiSpec | None = None  # None: the tbf channel
 
     def __post_init__(self) -> None:
-        check_study(self.ns, self.rates, self.batches)
+        check_study(self.ns, self.rates, self.batches, self.search)
         unknown = sorted(set(self.baselines) - set(BASELINES))
         if unknown:
             raise ValueError(f"unknown baselines {unknown}: choose from {', '.join(BASELINES)}")
@@ -104,7 +111,7 @@ class StudyConfig:
 
     @property
     def estimated_runs(self) -> int:
-        per_n = 1 + len(self.baselines) * (1 + SEARCH_RUNS)
+        per_n = 1 + len(self.baselines) * (1 + SEARCH_RUNS[self.search])
         return per_n * len(self.ns) * self.batches
 
 
@@ -121,13 +128,13 @@ class Job:
     search: bool = False
 
 
-def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float],
-                 up_first: bool = True) -> float:
+def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float]
+                 ) -> float:
     """The rate of ``grid`` with the lowest ``cost`` on a unimodal curve: from the grid
     rate just below ``share`` (where queues start to build), towards the better
-    neighbour (the one above tried first, or the one below with ``up_first`` False)
-    until a rate is worse than the one before it. Each rate is measured once, and a grid
-    of one rate is measured too (the caller knows the best: its run is kept)."""
+    neighbour (the one above tried first) until a rate is worse than the one before it.
+    Each rate is measured once, and a grid of one rate is measured too (the caller knows
+    the best: its run is kept)."""
     rates = sorted(grid)
     start = max((i for i, r in enumerate(rates) if r <= share), default=0)
     costs: dict[int, float] = {}
@@ -137,20 +144,37 @@ def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], fl
             costs[i] = cost(rates[i])
         return costs[i]
 
-    first = 1 if up_first else -1
-    best, step = start, -first
+    best, step = start, -1
     at(start)
-    if 0 <= start + first < len(rates) and at(start + first) < at(start):
-        best, step = start + first, first
+    if start + 1 < len(rates) and at(start + 1) < at(start):
+        best, step = start + 1, 1
     while 0 <= best + step < len(rates) and at(best + step) < at(best):
         best += step
     return rates[best]
 
 
 def best_rate(config: StudyConfig, job: Job, run: Measure) -> float:
-    """The grid rate with the lowest mean AoI for ``job``'s baseline at N (see module)."""
-    return best_of_grid(config.rates, config.share_fps(job.n), lambda rate: run(
-        config.spec(job.system, job.n, rate, job.batch)).result.mean("mean_aoi_s"))
+    """The rate with the lowest mean AoI for ``job``'s baseline at N, by the config's
+    search from the channel's share (see module)."""
+    def cost(rate: float) -> float:
+        return run(config.spec(job.system, job.n, rate, job.batch)).result.mean("mean_aoi_s")
+
+    share = config.share_fps(job.n)
+    if config.search == "grid":
+        return best_of_grid(config.rates, share, cost)
+    return fine_search(cost, share)
+
+
+def searched(config: StudyConfig, results: StudyResults, system: str, n: int, batch: int
+             ) -> list[tuple[float, float]]:
+    """(rate, mean AoI) of every rate the search of ``system`` at N in ``batch`` ran, in
+    order: that baseline's runs there but its fixed-rate one. Read from the runs, so a
+    study cut short, or merged N by N (``--live``), has them too."""
+    runs = [(o.result.rate, o.result.mean("mean_aoi_s")) for o in results.outcomes
+            if (o.result.system, o.result.n, o.result.seed) == (system, n, batch)
+            and o.result.rate is not None]
+    fixed = next((i for i, (rate, _) in enumerate(runs) if rate == config.fixed_rate), None)
+    return [run for i, run in enumerate(runs) if i != fixed]
 
 
 def plan(config: StudyConfig) -> Iterator[Job]:

@@ -11,12 +11,15 @@ from pathlib import Path
 
 from wiswarm_zenoh.experiments.sweep import Point, point_of
 from wiswarm_zenoh.experiments.sweep_report import (
+    SEARCH_HEAD,
+    SEARCH_NAMES,
     gains_table,
     plot_against_n,
+    search_cells,
     write_runs_csv,
     write_summary_csv,
 )
-from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults
+from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults, searched
 from wiswarm_zenoh.sim.link import LinkParams, link_curve
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.testbed.run import failed_line
@@ -40,8 +43,10 @@ def summarise(config: StudyConfig, results: StudyResults) -> list[Point]:
     points = [point_of(label, group) for (label, _), group in sorted(groups.items())]
     for n in config.ns:
         for system in config.baselines:
+            tried = {rate for b in range(config.batches)
+                     for rate, _ in searched(config, results, system, n, b)}
             rates = [p for p in points if p.n == n and p.label.startswith(f"{system}@")
-                     and p.rate in config.rates]
+                     and p.rate in tried]
             chosen = [results.best[(system, n, b)] for b in range(config.batches)
                       if (system, n, b) in results.best]
             if chosen:
@@ -77,6 +82,20 @@ def model_points(config: StudyConfig, points: Sequence[Point]) -> list[Point]:
             if result is not None:
                 modelled.append(point_of(label, [result]))
     return modelled
+
+
+def search_lines(config: StudyConfig, results: StudyResults) -> list[str]:
+    """Each search: the rates it ran in order with their mean AoI, and its choice."""
+    lines = [f"| N | baseline | batch | {SEARCH_HEAD}", "|---|---|---|---|---|---|"]
+    for n in config.ns:
+        for system in config.baselines:
+            for batch in range(config.batches):
+                tried = searched(config, results, system, n, batch)
+                if not tried:
+                    continue
+                lines.append(f"| {n} | {system} | {batch} | " + search_cells(
+                    config.share_fps(n), tried, results.best.get((system, n, batch))))
+    return lines
 
 
 def floor_lines(results: StudyResults) -> list[str]:
@@ -170,11 +189,18 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
         "",
         f"{status}{config.batches} batch(es) of {config.duration:g} s after a "
         f"{config.warmup:g} s warm-up, {config.frame_bytes} B frames. Gain = baseline / "
-        "WiSwarm for AoI, WiSwarm / baseline for throughput; `-opt` = the grid rate the "
-        "search found best at that N. AoI from the generation time every frame carries "
-        "(one host clock).",
+        "WiSwarm for AoI, WiSwarm / baseline for throughput; `-opt` = the rate "
+        f"{SEARCH_NAMES[config.search]} found best at that N. AoI from the generation time "
+        "every frame carries (one host clock).",
         "",
         gains_table(points, config.fixed_rate, ns, config.baselines),
+        "## Each baseline's best rate",
+        "",
+        f"Found by {SEARCH_NAMES[config.search]}, starting from the channel's share of "
+        "each follower (`-` : the search was cut short).",
+        "",
+        *search_lines(config, results),
+        "",
         "## WiSwarm against the round-robin floor",
         "",
         *floor_lines(results),

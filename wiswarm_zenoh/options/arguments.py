@@ -293,12 +293,26 @@ def add_zenoh_arguments(parser: argparse.ArgumentParser, modes: Sequence[str]) -
                             "keeps every departed process's 17 MiB mapped)")
 
 
-def add_rate_grid(parser: argparse.ArgumentParser, whose: str) -> None:
+def add_rate_grid(parser: argparse.ArgumentParser, whose: str,
+                  searched: str | None = None) -> None:
     """``--rates`` (the grid a baseline's best rate is searched on) and ``--fixed-rate``,
-    as every study takes them; ``whose``: "the baselines'", "push's"."""
-    from wiswarm_zenoh.experiments.sweep import PAPER_RATES  # what nodes never load
+    as every study takes them; ``whose``: "the baselines'", "push's". With ``searched``
+    (what ``--rates`` is for then) also ``--search``, fine by default, and ``--rates``
+    is None unless given."""
+    from wiswarm_zenoh.experiments.sweep import PAPER_RATES, SEARCHES  # nodes never load
 
-    parser.add_argument("--rates", type=FRAME_RATES, default=PAPER_RATES,
-                        help=f"{whose} rate grid for the best rate, fps (default the paper's)")
+    paper = ",".join(f"{r:g}" for r in PAPER_RATES)
+    if searched is None:
+        parser.add_argument("--rates", type=FRAME_RATES, default=PAPER_RATES,
+                            help=f"{whose} rate grid for the best rate, fps (default the "
+                            f"paper's: {paper})")
+    else:
+        parser.add_argument("--search", choices=SEARCHES, default=SEARCHES[0],
+                            help=f"how {whose} best rate is found: fine, a golden-section "
+                            "search on the rate from the channel's share of each follower "
+                            "until the best rate's neighbours tried are within 5 %%; grid, "
+                            "the best of --rates, as the paper's (default fine)")
+        parser.add_argument("--rates", type=FRAME_RATES,
+                            help=f"{searched}, fps (default the paper's: {paper})")
     parser.add_argument("--fixed-rate", type=positive_float(), default=50.0,
                         help=f"the fixed-rate {whose.removeprefix('the ')} fps (default 50)")
