@@ -3,14 +3,16 @@ topics the ground subscribes to, what polls and replies need of the channel."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import itertools
 from pathlib import Path
 
 import pytest
 
-from wiswarm_zenoh.experiments.ros2_air import AirCase, AirResults, CaseResult
-from wiswarm_zenoh.experiments.ros2_air_nodes import Throttle
+from wiswarm_zenoh.experiments import ros2_air
+from wiswarm_zenoh.experiments.ros2_air import AirCase, AirConfig, AirResults, CaseResult
+from wiswarm_zenoh.experiments.ros2_air_nodes import Throttle, throttled_hz
 from wiswarm_zenoh.experiments.ros2_air_report import (
     HEADER_BYTES,
     SEGMENT_BYTES,
@@ -39,6 +41,15 @@ def test_a_throttle_between_divisors_keeps_the_first_frame_after_each_period() -
     # 4 Hz from 30 Hz: a period of 7.5 frames, so gaps of 8 frames (never 7)
     passed = _passed(4.0, 60)
     assert {b - a for a, b in itertools.pairwise(passed)} == {8}
+
+
+@pytest.mark.parametrize("max_hz", [30.0, 29.0, 15.0, 7.5, 7.2, 5.0, 4.0, 2.2, 0.5])
+def test_what_a_throttle_passes_is_every_kth_frame(max_hz: float) -> None:
+    """What (b)'s search runs a rate at: the throttle's own rate of passing frames."""
+    passed = _passed(max_hz, 600)
+    gaps = {b - a for a, b in itertools.pairwise(passed)}
+    assert gaps == {round(30.0 / throttled_hz(max_hz))}
+    assert throttled_hz(throttled_hz(max_hz)) == throttled_hz(max_hz)
 
 
 def test_no_throttle_keeps_every_frame_and_a_bad_rate_is_refused() -> None:
@@ -93,12 +104,37 @@ def test_the_report_judges_each_target_and_draws_the_figure(tmp_path: Path) -> N
     c = dataclasses.replace(counted, up_bytes=round(up), down_bytes=round(down))
     results = AirResults([c, _run(AirCase("direct", 8), 0.1375 * 20, 10),
                           _run(AirCase("throttled", 8, 5.0), 0.1375 * 1.2, 50)],
-                         {("tbf", 8): 5.0})
+                         {("tbf", 8): 5.0}, {("tbf", 8): 6.4})
     text = report(results)
     assert "(b) throttled 5 Hz (best)" in text
+    assert "| tbf | 8 | 6.4 | 5: 165 | 5 |" in text
     assert "(c) 1.10 x the floor (target <= 1.2): met" in text
     assert "(a)/(c) 20.0 (target >= 20): met" in text
     assert "(b)/(c) 1.20 (target >= 1.5): MISSED" in text
     assert "(c)'s bytes 0 % off what polls and replies need (target <= 10 %): met" in text
     plot(tmp_path / "air.png", results)
     assert (tmp_path / "air.png").stat().st_size > 10_000
+
+
+def test_b_is_searched_finely_from_the_share_each_throttle_run_once(
+        monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    """(a) and (c) once, then (b) at the throttles the fine search asks for, each rate
+    the throttle gives run once; the best is one of them, near the cliff (5.6 Hz)."""
+    measured: list[AirCase] = []
+
+    def measure_case(medium: object, name: str, case: AirCase, *_: object) -> CaseResult:
+        measured.append(case)
+        hz = case.max_hz or 30.0
+        return _run(case, 1 / hz if hz < 5.6 else hz, 10)
+
+    monkeypatch.setattr(ros2_air, "measure_case", measure_case)
+    monkeypatch.setattr(ros2_air, "Channel", lambda spec: contextlib.nullcontext(None))
+    config = AirConfig(ns=(8,), media=("tbf",))
+    results = ros2_air.run_air(config, tmp_path)
+    assert [c.kind for c in measured[:2]] == ["direct", "wiswarm"]
+    rates = [c.max_hz for c in measured[2:]]
+    assert len(rates) == len(set(rates)) and all(r == throttled_hz(r) for r in rates)
+    assert results.best[("tbf", 8)] == 5.0  # every 6th frame: the last below the cliff
+    assert results.share[("tbf", 8)] == config.share_fps("tbf", 8)
+    assert results.tried("tbf", 8) == [(r, pytest.approx(1 / r if r < 5.6 else r))
+                                       for r in rates]

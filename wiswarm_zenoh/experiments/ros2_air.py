@@ -7,9 +7,13 @@ Three ways to get the frames to the ground:
 - ``direct`` (a): subscribe to the robots' topics; Zenoh routes every publication over
   the air, as a ROS 2 team's ground station does today;
 - ``throttled`` (b): the same, each robot's topic dropped to at most R Hz at the robot
-  (zenoh-bridge-ros2dds's ``pub_max_frequencies``);
+  (zenoh-bridge-ros2dds's ``pub_max_frequencies``), R the best found by the fine search
+  (``rate_search``) from the medium's share of each robot;
 - ``wiswarm`` (c): a ``wiswarm follower --ros2-topic`` on each robot and ``wiswarm
   leader --ros2`` at the ground; subscribe to the leader's republished topics.
+
+A case is an entry of ``KINDS``: what runs on each robot and at the ground besides the
+routers and cameras.
 
 On the tbf channel the robots share its follower side's namespace (their routers on
 ports of their own), every byte to the ground crossing the one shaped uplink; on the
@@ -33,6 +37,7 @@ from pathlib import Path
 
 from wiswarm_zenoh.experiments.cli_processes import Cli, start_cli, stop_cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
+from wiswarm_zenoh.experiments.rate_search import fine_search
 from wiswarm_zenoh.experiments.ros2_air_nodes import (
     CAMERA_HZ,
     DOMAIN,
@@ -44,8 +49,9 @@ from wiswarm_zenoh.experiments.ros2_air_nodes import (
     robot_router,
     run_probe,
     run_robot,
+    throttled_hz,
 )
-from wiswarm_zenoh.experiments.testbed_study import best_of_grid, share_fps
+from wiswarm_zenoh.experiments.testbed_study import share_fps
 from wiswarm_zenoh.programs.demo import Children
 from wiswarm_zenoh.programs.runners import LeaderOptions, run_leader, run_router
 from wiswarm_zenoh.ros2.bridge import Ros2Options, default_namespace
@@ -61,11 +67,25 @@ from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec, window_counte
 
 log = logging.getLogger(__name__)
 
-CASES = ("direct", "throttled", "wiswarm")
+
+
+@dataclass(frozen=True)
+class Kind:
+    """What a case runs besides the robots' routers and cameras: a ``wiswarm follower
+    --ros2-topic`` on each robot with these flags added (None: none; the ground then
+    subscribes to its republished topic), and ``wiswarm leader --ros2`` at the ground."""
+
+    title: str  # the report's
+    follower: tuple[str, ...] | None = None
+    leader: bool = False
+
+
+KINDS = {"direct": Kind("(a) direct"), "throttled": Kind("(b) throttled"),
+         "wiswarm": Kind("(c) WiSwarm", follower=(), leader=True)}
+CASES = tuple(KINDS)
+SEARCHED = "throttled"  # the case whose rate is searched
 MEDIA = ("tbf", "wifi")
 SWARM = "air"
-# (b)'s grid: every rate a 30 Hz camera throttled gives exactly (30 / k Hz) in 2 .. 15
-RATES = tuple(CAMERA_HZ / k for k in (15, 12, 10, 9, 8, 7, 6, 5, 4, 3, 2))
 SUPERVISE_PERIOD = 0.5
 
 
@@ -82,21 +102,25 @@ class AirCase:
             raise ValueError(f"kind must be one of {', '.join(CASES)}, got {self.kind!r}")
         if self.n < 1:
             raise ValueError(f"n must be >= 1, got {self.n}")
-        if (self.kind == "throttled") != (self.max_hz is not None):
+        if (self.kind == SEARCHED) != (self.max_hz is not None):
             raise ValueError("max_hz is the throttled case's rate, and only its")
 
     @property
     def label(self) -> str:
-        return f"throttled@{self.max_hz:.3g}" if self.kind == "throttled" else self.kind
+        return f"{self.kind}@{self.max_hz:.3g}" if self.max_hz is not None else self.kind
 
     @property
     def robots(self) -> list[str]:
         return [robot_name(k) for k in range(1, self.n + 1)]
 
+    @property
+    def spec(self) -> Kind:
+        return KINDS[self.kind]
+
     def topic(self, index: int) -> str:
-        """What the ground subscribes to for robot ``index``: its own topic, or the
-        leader's republished one (``<NS>/<follower>/<topic without its leading />``)."""
-        if self.kind != "wiswarm":
+        """What the ground subscribes to for robot ``index``: its own topic, or the one
+        republished for it (``<NS>/<follower>/<topic without its leading />``)."""
+        if self.spec.follower is None:
             return camera_topic(index)
         return f"{default_namespace(SWARM)}/{follower_id(index)}{camera_topic(index)}"
 
@@ -113,7 +137,6 @@ class AirConfig:
     media: tuple[str, ...] = MEDIA
     duration: float = 20.0
     warmup: float = 5.0
-    rates: tuple[float, ...] = RATES
     channel: ChannelSpec = field(default_factory=ChannelSpec)
     wifi: WifiSpec = field(default_factory=WifiSpec)
 
@@ -125,8 +148,6 @@ class AirConfig:
             raise ValueError(f"media must be some of {', '.join(MEDIA)}, got {self.media}")
         if not (self.duration > 0 and self.warmup >= 0):
             raise ValueError("duration must be > 0 and warmup >= 0 seconds")
-        if not self.rates or min(self.rates) <= 0:
-            raise ValueError("rates must be a non-empty list of numbers > 0")
 
     def share_fps(self, medium: str, n: int) -> float:
         """Frames per second per robot that the medium carries when N share it."""
@@ -183,7 +204,8 @@ def air_bytes(medium: Medium) -> tuple[int, int]:
 
 
 def follower_command(index: int) -> list[str]:
-    """Robot ``index``'s ``wiswarm follower`` (the arguments after ``wiswarm``)."""
+    """Robot ``index``'s ``wiswarm follower`` (the arguments after ``wiswarm``), before
+    a case's own flags (``Kind.follower``)."""
     return ["follower", "--swarm", SWARM, "--id", follower_id(index), "--ros2-topic",
             camera_topic(index), "--ros-domain", str(DOMAIN), "-m", "client",
             "-e", robot_router(index), "--no-multicast-scouting"]
@@ -225,7 +247,7 @@ def _start(children: Children, medium: Medium, case: AirCase, leader_record: Pat
     for index, ns in enumerate(robot_namespaces(medium, case.n), start=1):
         children.start(f"robot{index}", run_in, ns, run_robot,
                        RobotOptions(index, ground.router_endpoint, case.max_hz), wait=False)
-    if case.kind == "wiswarm":
+    if case.spec.leader:
         children.start("leader", run_in, ground.leader_ns, run_leader, client_of_local_router(),
                        LeaderOptions(SWARM, record=str(leader_record),
                                      stats_file=str(leader_record.with_suffix(".json")),
@@ -240,9 +262,10 @@ def measure_case(medium: Medium, name: str, case: AirCase, config: AirConfig, wo
     stem = f"{workdir / name}-{case.label}-n{case.n}"
     probe, leader_record = Path(f"{stem}.csv"), Path(f"{stem}-leader.csv")
     robots = robot_namespaces(medium, case.n)
-    followers = [(ns, follower_command(k)) for k, ns in enumerate(robots, start=1)
-                 if case.kind == "wiswarm"]
-    senders = [*(["leader"] if case.kind == "wiswarm" else []),
+    flags = case.spec.follower
+    followers = [] if flags is None else [(ns, follower_command(k) + list(flags))
+                                          for k, ns in enumerate(robots, start=1)]
+    senders = [*(["leader"] if case.spec.leader else []),
                *(f"robot{k}" for k in range(1, case.n + 1))]
     children = Children(multiprocessing.get_context("spawn"))
     with children:
@@ -259,7 +282,7 @@ def measure_case(medium: Medium, name: str, case: AirCase, config: AirConfig, wo
             children.stop(["probe"])
         children.stop(senders)  # before the router they reach the ground through
     metrics = window_metrics(read_record(probe), case.robots, started, t0, t1, IMAGE_BYTES)
-    replies, size, polls = (_leader_counts(leader_record, t0, t1) if case.kind == "wiswarm"
+    replies, size, polls = (_leader_counts(leader_record, t0, t1) if case.spec.leader
                             else (0, 0, 0.0))
     counters = ({} if first.medium is None or last.medium is None
                 else window_counters(first.medium, last.medium, t1 - t0))
@@ -299,10 +322,17 @@ class _Watch:
 
 @dataclass
 class AirResults:
-    """Every run, and (b)'s best rate per (medium, N)."""
+    """Every run, and per (medium, N) (b)'s best rate and the share its search started
+    from; the rates it tried are its runs (``tried``)."""
 
     runs: list[CaseResult] = field(default_factory=list)
     best: dict[tuple[str, int], float] = field(default_factory=dict)
+    share: dict[tuple[str, int], float] = field(default_factory=dict)
+
+    def tried(self, medium: str, n: int) -> list[tuple[float, float]]:
+        """(rate, mean AoI) of every throttle (b)'s search ran at N, in order."""
+        return [(r.case.max_hz, r.mean()) for r in self.runs
+                if (r.medium, r.case.n) == (medium, n) and r.case.max_hz is not None]
 
     def find(self, medium: str, n: int, kind: str, max_hz: float | None = None
              ) -> CaseResult | None:
@@ -325,9 +355,10 @@ def _media(config: AirConfig, name: str) -> Iterator[MediumFactory]:
 
 def run_air(config: AirConfig, workdir: Path,
             progress: Callable[[CaseResult], None] | None = None) -> AirResults:
-    """Every medium and N: (c), (a), then (b)'s search for its best rate of the grid
-    (``best_of_grid``), the rate below the medium's share tried first: above it every
-    rate overloads the medium, and their ages, all seconds, differ by noise alone."""
+    """Every medium and N: each case but (b), then (b)'s fine search for its best rate
+    from the medium's share, up to the camera's rate (there the throttle passes all).
+    A throttle of R Hz passes every k-th frame of the camera (``throttled_hz``): the
+    search's rates are run at what the throttle gives, each once."""
     results = AirResults()
     for name in config.media:
         with _media(config, name) as medium_for:
@@ -341,12 +372,15 @@ def run_air(config: AirConfig, workdir: Path,
                 return result
 
             for n in config.ns:
-                measure(AirCase("wiswarm", n))
-                measure(AirCase("direct", n))
+                for kind in CASES:
+                    if kind != SEARCHED:
+                        measure(AirCase(kind, n))
 
-                def cost(rate: float, n: int = n) -> float:
-                    return measure(AirCase("throttled", n, rate)).mean()
+                def cost(rate: float, n: int = n, name: str = name) -> float:
+                    hz = throttled_hz(rate)
+                    run = results.find(name, n, SEARCHED, hz)
+                    return (run or measure(AirCase(SEARCHED, n, hz))).mean()
 
-                results.best[(name, n)] = best_of_grid(
-                    config.rates, config.share_fps(name, n), cost, up_first=False)
+                share = results.share[(name, n)] = config.share_fps(name, n)
+                results.best[(name, n)] = throttled_hz(fine_search(cost, share, high=CAMERA_HZ))
     return results

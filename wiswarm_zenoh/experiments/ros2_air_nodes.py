@@ -76,6 +76,12 @@ class Throttle:
         return True
 
 
+def throttled_hz(max_hz: float, camera_hz: float = CAMERA_HZ) -> float:
+    """What a ``Throttle`` of ``max_hz`` passes of a ``camera_hz`` camera: every k-th
+    frame, k the frames a period spans rounded up (4 Hz of 30: every 8th, 3.75 Hz)."""
+    return camera_hz / max(1, math.ceil(camera_hz / max_hz - camera_hz * THROTTLE_SLACK_S))
+
+
 def image_data(image_bytes: int) -> Any:
     """Random bytes (nothing on the way compresses them) as a CompressedImage's data,
     sized so that the whole CDR message is ``image_bytes`` long."""

@@ -13,7 +13,8 @@ import math
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.report_cells import ms, ratio, times
-from wiswarm_zenoh.experiments.ros2_air import AirResults, CaseResult
+from wiswarm_zenoh.experiments.ros2_air import CASES, KINDS, SEARCHED, AirResults, CaseResult
+from wiswarm_zenoh.experiments.sweep_report import SEARCH_HEAD, SEARCH_NAMES, search_cells
 from wiswarm_zenoh.experiments.testbed_study_report import MEDIUM_COLUMNS
 from wiswarm_zenoh.testbed.spec import MAX_FRAME_BYTES, MTU
 
@@ -55,32 +56,35 @@ def _mb(value: float) -> str:
     return f"{value / 1e6:.1f}"
 
 
-def rows(results: AirResults) -> list[tuple[str, int, CaseResult | None, CaseResult | None,
-                                            CaseResult | None]]:
-    """(medium, N, (a), (b) at its best rate, (c)) in the order measured."""
+Row = tuple[str, int, dict[str, CaseResult]]
+
+
+def rows(results: AirResults) -> list[Row]:
+    """(medium, N, each case's run: (b)'s at its best rate) in the order measured."""
     keys = list(dict.fromkeys((r.medium, r.case.n) for r in results.runs))
     out = []
     for medium, n in keys:
         best = results.best.get((medium, n))
-        throttled = None if best is None else results.find(medium, n, "throttled", best)
-        out.append((medium, n, results.find(medium, n, "direct"), throttled,
-                    results.find(medium, n, "wiswarm")))
+        runs = {kind: results.find(medium, n, kind, best if kind == SEARCHED else None)
+                for kind in CASES}
+        out.append((medium, n, {kind: run for kind, run in runs.items() if run is not None}))
     return out
 
 
 def case_name(run: CaseResult, results: AirResults) -> str:
+    title = KINDS[run.case.kind].title
     if run.case.max_hz is None:
-        return "(a) direct" if run.case.kind == "direct" else "(c) WiSwarm"
+        return title
     best = results.best.get((run.medium, run.case.n)) == run.case.max_hz
-    return f"(b) throttled {run.case.max_hz:.3g} Hz{' (best)' if best else ''}"
+    return f"{title} {run.case.max_hz:.3g} Hz{' (best)' if best else ''}"
 
 
 def table(results: AirResults) -> list[str]:
     """One row a run: age at the ground, frames, the channel's bytes; (c)'s floor."""
     lines = ["| medium | N | case | mean AoI (ms) | p95 AoI (ms) | frames/s per robot | "
              "channel up / down (MB) | / (c) |", "|---|---|---|---|---|---|---|---|"]
-    for medium, n, _, _, wiswarm in rows(results):
-        c = math.nan if wiswarm is None else wiswarm.mean()
+    for medium, n, runs in rows(results):
+        c = runs["wiswarm"].mean() if "wiswarm" in runs else math.nan
         for run in (r for r in results.runs if (r.medium, r.case.n) == (medium, n)):
             lines.append(f"| {medium} | {n} | {case_name(run, results)} | {ms(run.mean())} | "
                          f"{ms(run.mean('p95_aoi_s'))} | {run.mean('throughput_fps'):.1f} | "
@@ -108,8 +112,8 @@ def floor_lines(results: AirResults) -> list[str]:
     lines = ["| medium | N | S measured (ms) | floor (ms) | (c) mean AoI (ms) | / floor | "
              "(c) up / down (MB) | polls and replies need (MB) | measured / need |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for medium, n, _, _, c in rows(results):
-        if c is None:
+    for medium, n, runs in rows(results):
+        if (c := runs.get("wiswarm")) is None:
             continue
         floor = floor_s(c)
         up, down = needed_bytes(c)
@@ -124,7 +128,8 @@ def floor_lines(results: AirResults) -> list[str]:
 def targets(results: AirResults) -> list[str]:
     """Each of the issue's targets, met or missed, with its numbers."""
     lines = []
-    for medium, n, direct, throttled, c in rows(results):
+    for medium, n, runs in rows(results):
+        c, direct, throttled = runs.get("wiswarm"), runs.get("direct"), runs.get(SEARCHED)
         if c is None:
             continue
         mean = c.mean()
@@ -150,7 +155,16 @@ def targets(results: AirResults) -> list[str]:
     return lines
 
 
-CASE_COLOURS = (("(a) direct", "C3"), ("(b) best throttled", "C1"), ("(c) WiSwarm", "C0"))
+def search_lines(results: AirResults) -> list[str]:
+    """(b)'s search at each medium and N: the throttles it ran in order, its choice."""
+    lines = [f"| medium | N | {SEARCH_HEAD}", "|---|---|---|---|---|"]
+    for (medium, n), share in results.share.items():
+        lines.append(f"| {medium} | {n} | " + search_cells(
+            share, results.tried(medium, n), results.best.get((medium, n))))
+    return lines
+
+
+CASE_COLOURS = {"direct": "C3", "throttled": "C1", "wiswarm": "C0"}
 
 
 def plot(path: Path, results: AirResults) -> None:
@@ -166,20 +180,24 @@ def plot(path: Path, results: AirResults) -> None:
     for column, medium in enumerate(media):
         aoi, air = axes[0][column], axes[1][column]
         measured = [row for row in rows(results) if row[0] == medium]
-        for x, (_, _, *runs) in enumerate(measured):
-            for i, (run, (label, colour)) in enumerate(zip(runs, CASE_COLOURS, strict=True)):
-                if run is None:
+        width = 0.8 / len(CASES)
+        for x, (_, _, runs) in enumerate(measured):
+            for i, kind in enumerate(CASES):
+                if (run := runs.get(kind)) is None:
                     continue
-                first = x == 0
-                aoi.bar(x + (i - 1) * 0.27, run.mean() * 1e3, 0.25, color=colour,
-                        label=label if first else None)
-                air.bar(x + (i - 1) * 0.27, run.up_bytes * 8 / run.duration / 1e6, 0.25,
-                        color=colour, label=label if first else None)
-            c = runs[2]
+                label = (f"{KINDS[kind].title}{' (best)' if kind == SEARCHED else ''}"
+                         if x == 0 else None)
+                at = x + (i - (len(CASES) - 1) / 2) * width
+                aoi.bar(at, run.mean() * 1e3, width * 0.92, color=CASE_COLOURS[kind],
+                        label=label)
+                air.bar(at, run.up_bytes * 8 / run.duration / 1e6, width * 0.92,
+                        color=CASE_COLOURS[kind], label=label)
+            c = runs.get("wiswarm")
             if c is not None:
                 aoi.hlines(floor_s(c) * 1e3, x - 0.42, x + 0.42, colors="k",
                            linestyles="--", label="floor S(N/2+1)" if x == 0 else None)
-                air.scatter([x + 0.27], [needed_bytes(c)[0] * 8 / c.duration / 1e6], s=40,
+                air.scatter([x + (CASES.index("wiswarm") - (len(CASES) - 1) / 2) * width],
+                            [needed_bytes(c)[0] * 8 / c.duration / 1e6], s=40,
                             marker="x", color="k", zorder=3,
                             label="(c)'s polls and replies need" if x == 0 else None)
         for ax in (aoi, air):
@@ -202,6 +220,10 @@ def plot(path: Path, results: AirResults) -> None:
 def report(results: AirResults) -> str:
     """The markdown report: table, floor and bytes, targets."""
     return "\n".join(["## Runs", "", *table(results), "",
+                      "## (b)'s throttle", "",
+                      f"By {SEARCH_NAMES['fine']} from the medium's share of each robot, up "
+                      "to the camera's 30 Hz; each rate run at what the throttle gives of "
+                      "the camera (every k-th frame).", "", *search_lines(results), "",
                       "## (c) against the floor, and its bytes", "", *floor_lines(results), "",
                       "## Targets", "", *targets(results), "",
                       "## The host and the air", "", *medium_lines(results), ""])
