@@ -2,10 +2,13 @@
 the WiFi medium): N = 4 and 8 robots, each a Zenoh router of its own with a 30 Hz,
 50 kB ``sensor_msgs/msg/CompressedImage`` topic in rmw_zenoh's format, and a ROS 2
 subscriber at the ground measuring every robot's frames' age, for (a) subscribing to
-the robots' topics directly, (b) the same throttled at the robot to the best rate of a
-grid, (c) subscribing to ``wiswarm leader --ros2``'s republished topics (a ``wiswarm
-follower --ros2-topic`` on each robot). Over the 20 Mbit/s tbf channel and ns-3's WiFi
-medium (802.11g). About 11 minutes with the defaults (21 runs).
+the robots' topics directly, (b) the same throttled at the robot to its best rate,
+found by the fine search from the medium's share of each robot (golden-section on the
+rate, to 5 % or to the next rate the throttle gives of the 30 Hz camera; the report
+lists the rates tried), (c) subscribing to ``wiswarm leader --ros2``'s republished
+topics (a ``wiswarm follower --ros2-topic`` on each robot). Over the 20 Mbit/s tbf
+channel and ns-3's WiFi medium (802.11g). About 12 minutes with the defaults (about 24
+runs).
 
     flock /tmp/bench.lock .venv/bin/python benchmarks/bench_ros2_air.py \\
         --out runs/ros2-air --figure docs/ros2_air.png

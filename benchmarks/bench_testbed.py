@@ -3,8 +3,8 @@
 At N = 8 and N = 14 over a 20 Mbit/s tbf channel with 224x224 frames (Linux, root):
 WiSwarm's mean AoI against the round-robin floor S (N/2 + 1), S measured on the channel
 (the window over the polls that delivered), and the mean AoI, p95 AoI and throughput
-ratios of every baseline, at 50 fps and at its best rate of the paper's grid, to
-WiSwarm's, next to the paper's. All systems are measured in the same run, on channels
+ratios of every baseline, at 50 fps and at its best rate (the study's fine search from
+the channel's share), to WiSwarm's, next to the paper's. All systems are measured in the same run, on channels
 built alike. About 5 minutes with the defaults.
 
     .venv/bin/python benchmarks/bench_testbed.py
