@@ -4,8 +4,8 @@ At N = 8 and N = 14 over a 20 Mbit/s tbf channel with 224x224 frames (Linux, roo
 WiSwarm's mean AoI against the round-robin floor S (N/2 + 1), S measured on the channel
 (the window over the polls that delivered), and the mean AoI, p95 AoI and throughput
 ratios of every baseline, at 50 fps and at its best rate (the study's fine search from
-the channel's share), to WiSwarm's, next to the paper's. All systems are measured in the same run, on channels
-built alike. About 5 minutes with the defaults.
+the channel's share), to WiSwarm's, next to the paper's. All systems are measured in
+the same run, on channels built alike. About 8 minutes with the defaults.
 
     .venv/bin/python benchmarks/bench_testbed.py
     .venv/bin/python benchmarks/bench_testbed.py --ns 8 --duration 20 --parallel 1

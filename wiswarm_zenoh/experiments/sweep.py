@@ -31,7 +31,7 @@ PAPER_NS = (2, 4, 6, 8, 10, 12, 14)
 BASELINES = ("udp", "tcp")
 METRICS = ("mean_aoi_s", "p95_aoi_s", "peak_aoi_s", "throughput_fps", "throughput_mbps")
 SEARCHES = ("fine", "grid")  # how a study finds a baseline's best rate (see the module)
-SEARCH_RUNS = 7  # a fine search's typical rates, for the progress estimate
+FINE_SEARCH_RUNS = 7  # a fine search's typical rates, for the progress estimates
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -135,7 +135,7 @@ def run_sweep(
     side by side), on ``jobs`` processes; ``progress(done, total)`` after each run or
     search (the total estimated: a search's runs are known when it ends)."""
     plan = config.plan()
-    total = len(plan) + len(config.searches) * SEARCH_RUNS * config.batches
+    total = len(plan) + len(config.searches) * FINE_SEARCH_RUNS * config.batches
     results: list[WifiResult] = []
     progress(0, total)
     with _mapper(jobs) as mapped:

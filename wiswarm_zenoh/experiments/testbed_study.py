@@ -8,9 +8,9 @@ The search (``search``) is ``fine`` by default: ``rate_search.fine_search`` from
 share (link rate / (N x frame bits)), until the best rate's tried neighbours are within
 5 % of it (about seven runs). A grid of whole frames per second misses the best, which
 lies just below the cliff: at N = 14 the share is 3.4 fps on 20 Mbit/s, 2.9 fps on the
-WiFi medium, and the paper's grid jumps from 3 to 5 fps. ``grid`` is the paper's way (``best_of_grid``), kept to
-reproduce it: from the grid rate just below the share, walking to the better neighbour
-until a rate is worse (two to four runs).
+WiFi medium, and the paper's grid jumps from 3 to 5 fps. ``grid`` is the paper's way
+(``best_of_grid``), kept to reproduce it: from the grid rate just below the share,
+walking to the better neighbour until a rate is worse (two to four runs).
 
 With ``medium`` set, every run goes over ns-3's WiFi medium instead, a station per
 follower (``wifi``), built once per worker with as many stations as the largest N.
@@ -37,7 +37,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from wiswarm_zenoh.experiments.rate_search import fine_search
-from wiswarm_zenoh.experiments.sweep import PAPER_NS, PAPER_RATES, check_study
+from wiswarm_zenoh.experiments.sweep import FINE_SEARCH_RUNS, PAPER_NS, PAPER_RATES, check_study
 from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import (
@@ -62,7 +62,7 @@ def share_fps(rate_bps: float, n: int, frame_bytes: int) -> float:
     return rate_bps / (n * frame_bytes * 8 * FRAME_OVERHEAD)
 
 
-SEARCH_RUNS = {"fine": 7, "grid": 3}  # a typical search's runs, for the progress estimate
+SEARCH_RUNS = {"fine": FINE_SEARCH_RUNS, "grid": 3}  # a typical search's runs
 JOIN_PERIOD = 0.2  # seconds between checks that the workers ended
 
 
