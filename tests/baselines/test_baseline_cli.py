@@ -54,6 +54,21 @@ def _zenoh(port: int) -> list[str]:
      "argument --to: 'nowhere' must look like HOST:PORT"),
     (["follower", "--id", "a", "--system", "push", "--frame-bytes", "8"],
      "frame_bytes must be in [16, 16777216], got 8"),
+    (["follower", "--id", "a", "--system", "push", "--newest-only", "--congestion", "drop"],
+     "--newest-only sends each frame once the previous put completed: it needs "
+     "--congestion block"),
+    (["follower", "--id", "a", "--system", "push", "--newest-only", "--capacity", "2"],
+     "--capacity sizes the FIFO: --newest-only keeps one frame"),
+    (["follower", "--id", "a", "--system", "udp", "--to", "127.0.0.1:9", "--newest-only"],
+     "--newest-only is for --system push/tcp, not udp"),
+    (["follower", "--id", "a", "--system", "tcp", "--to", "127.0.0.1:9", "--send-buffer",
+      "4096"], "--send-buffer is for --newest-only"),
+    (["follower", "--id", "a", "--system", "push", "--newest-only", "--send-buffer", "4096"],
+     "--send-buffer is for --system tcp, not push"),
+    (["follower", "--id", "a", "--system", "push", "--ros2-topic", "/d/camera"],
+     "--ros2-topic with --system push needs --newest-only"),
+    (["follower", "--id", "a", "--system", "tcp", "--to", "127.0.0.1:9", "--newest-only",
+      "--ros2-topic", "/d/camera"], "--ros2-topic is for --system wiswarm/push, not tcp"),
     (["leader", "--system", "tcp", "--bind", "nowhere"], "must look like HOST:PORT"),
     (["leader", "--system", "push", "--bind", "127.0.0.1:7450"],
      "--bind is for --system udp/tcp, not push"),
@@ -84,7 +99,9 @@ def test_an_address_in_use_is_one_line_and_exit_2(
 
 @pytest.mark.parametrize(("command", "words"), [
     ("follower", ["--system", "push", "udp", "tcp", "FIFO", "--congestion", "block", "drop",
-                  "--to", "--capacity", "one datagram"]),
+                  "--to", "--capacity", "one datagram", "--newest-only", "keep only the "
+                  "newest frame", "the moment the previous send completed", "--send-buffer",
+                  "SO_SNDBUF", "/wiswarm/<swarm>/<id>TOPIC"]),
     ("leader", ["--system", "--bind", "7450", "wiswarm/<swarm>/leader/stats", "--record"]),
 ])
 def test_help_explains_the_systems(capsys: pytest.CaptureFixture[str], command: str,
@@ -114,4 +131,26 @@ def test_a_receiver_and_a_follower_from_the_command_line(
     with record.open(newline="") as src:
         rows = list(csv.reader(src))
     assert tuple(rows[0]) == DeliveryRecord.FIELDS
+    assert len(rows) > 20 and {row[0] for row in rows[1:]} == {"f1"}
+
+
+def test_a_newest_only_tcp_follower_from_the_command_line(
+        router_port: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Its receiver is the tcp baseline's: the same frames on the same socket."""
+    bind, record = f"127.0.0.1:{free_tcp_port()}", tmp_path / "record.csv"
+    leader = ["leader", "--swarm", "s1", "--system", "tcp", "--bind", bind, "--record",
+              str(record), "--duration", "3", *_zenoh(router_port)]
+    follower = ["follower", "--swarm", "s1", "--id", "f1", "--system", "tcp", "--to", bind,
+                "--newest-only", "--send-buffer", "8192", "--duration", "1.5",
+                *_zenoh(router_port)]
+    codes: list[int] = []
+    receiver = threading.Thread(target=lambda: codes.append(cli_main.main(leader)))
+    receiver.start()
+    assert cli_main.main(follower) == 0
+    receiver.join()
+    assert codes == [0]
+    out = capsys.readouterr().out
+    assert "frames at 100 Hz, newest only, send buffer 8192 B, tcp (to " + bind in out
+    with record.open(newline="") as src:
+        rows = list(csv.reader(src))
     assert len(rows) > 20 and {row[0] for row in rows[1:]} == {"f1"}

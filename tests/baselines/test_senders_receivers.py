@@ -269,7 +269,7 @@ def test_closing_a_push_sender_whose_put_blocks_never_undeclares_under_it(
     assert not publisher.undeclared.is_set()
     publisher.unblock.set()  # the session closes: the put returns
     assert publisher.undeclared.wait(WAIT)
-    assert sender.fifo.close()
+    assert sender.queue.close()
 
 
 def test_sequence_spans_and_sender_restarts_give_p_hat() -> None:

@@ -7,13 +7,21 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import zenoh
 
-from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY, FifoSender
+from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY
+from wiswarm_zenoh.baselines.newest import NEWEST_SEND_BUFFER
 from wiswarm_zenoh.baselines.receivers import SYSTEMS, Receiver
-from wiswarm_zenoh.baselines.senders import CONGESTION, PushSender, TcpSender, UdpSender
+from wiswarm_zenoh.baselines.senders import (
+    CONGESTION,
+    NEWEST_ZENOH,
+    PushSender,
+    QueuedSender,
+    TcpSender,
+    UdpSender,
+)
 from wiswarm_zenoh.baselines.servers import DEFAULT_BIND
 from wiswarm_zenoh.baselines.stamp import (
     MAX_FRAME_BYTES,
@@ -33,6 +41,8 @@ from wiswarm_zenoh.programs.runners import (
     wait_until_stopped,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.ros2.newest_push import Ros2NewestPush, newest_push_cfg
+from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
@@ -46,8 +56,11 @@ def _check_system(system: str) -> None:
 
 @dataclass(frozen=True)
 class BaselineFollowerOptions:
-    """Followers of one host process pushing synthetic frames at ``rate``; checked on
-    construction (ValueError names the field)."""
+    """Followers of one host process pushing synthetic frames at ``rate`` into a FIFO of
+    ``capacity`` or, ``newest_only``, a slot of one (push with congestion block, or tcp
+    with SO_SNDBUF ``send_buffer``); newest-only push may push ``source``, the robot's
+    ROS 2 topic, instead (``Ros2NewestPush``). Checked on construction (ValueError names
+    the field)."""
 
     swarm: str
     follower_ids: tuple[str, ...]
@@ -58,10 +71,23 @@ class BaselineFollowerOptions:
     receiver: str | None = None  # udp and tcp: HOST:PORT
     capacity: int = DEFAULT_CAPACITY
     duration: float | None = None
+    newest_only: bool = False
+    send_buffer: int = NEWEST_SEND_BUFFER  # tcp, newest only: bytes of SO_SNDBUF
+    source: Ros2TopicSource | None = None
 
     def __post_init__(self) -> None:
         SwarmKeys(self.swarm)
         _check_system(self.system)
+        if self.newest_only and self.system == "udp":
+            raise ValueError("newest_only is for push and tcp: a UDP send does not wait "
+                             "for the path")
+        if self.newest_only and self.congestion != "block":
+            raise ValueError("newest_only needs congestion block: a dropped put would "
+                             "empty the slot for nothing")
+        if self.source is not None and not (self.newest_only and self.system == "push"):
+            raise ValueError("a ROS 2 source is for newest-only push")
+        if self.send_buffer < 1:
+            raise ValueError(f"send_buffer must be >= 1 byte, got {self.send_buffer}")
         if not self.follower_ids or len(set(self.follower_ids)) != len(self.follower_ids):
             raise ValueError(f"follower_ids must be distinct and not empty: {self.follower_ids}")
         for follower in self.follower_ids:
@@ -89,12 +115,28 @@ class BaselineFollowerOptions:
 
 
 def _open_sender(session: zenoh.Session, options: BaselineFollowerOptions,
-                 follower: str) -> FifoSender:
+                 follower: str) -> QueuedSender | Ros2NewestPush:
+    capacity = None if options.newest_only else options.capacity
+    if options.source is not None:
+        return Ros2NewestPush(session, options.swarm, follower, options.source)
     if options.system == "push":
-        return PushSender(session, options.swarm, follower, options.congestion,
-                          options.capacity)
-    sender = UdpSender if options.system == "udp" else TcpSender
-    return sender(follower, str(options.receiver), options.capacity)
+        return PushSender(session, options.swarm, follower, options.congestion, capacity)
+    if options.system == "udp":
+        return UdpSender(follower, str(options.receiver), options.capacity)
+    return TcpSender(follower, str(options.receiver), capacity,
+                     send_buffer=options.send_buffer if options.newest_only else None)
+
+
+def _session_spec(spec: SessionSpec, options: BaselineFollowerOptions,
+                  follower: str) -> SessionSpec:
+    """A follower's session: newest-only push keeps Zenoh's queues beneath its put small
+    (``NEWEST_ZENOH``; pushing a ROS 2 topic, that topic's puts block too). The spec's
+    own ``--cfg`` entries come after, and win."""
+    if not (options.newest_only and options.system == "push"):
+        return spec
+    extra = NEWEST_ZENOH if options.source is None else newest_push_cfg(
+        options.swarm, follower, options.source)
+    return replace(spec, cfg=(*extra, *spec.cfg))
 
 
 def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
@@ -107,26 +149,27 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
     watches = RouterWatches(spec.routers())
     deadline = deadline_of(options.duration)
     with ExitStack() as stack:
-        feeds: list[tuple[str, FifoSender, SyntheticFrames]] = []
+        feeds: list[tuple[str, QueuedSender | Ros2NewestPush]] = []
         for follower in options.follower_ids:
-            session = stack.enter_context(open_node_session(spec, f"follower {follower}",
-                                                            stop, deadline))
+            session = stack.enter_context(open_node_session(
+                _session_spec(spec, options, follower), f"follower {follower}", stop,
+                deadline))
             watches.add(session, f"follower {follower}")
             stack.enter_context(session.liveliness().declare_token(keys.member(follower)))
             sender = _open_sender(session, options, follower)
             stack.callback(sender.close)
-            feeds.append((follower, sender,
-                          SyntheticFrames(sender.offer, options.frame_bytes, options.rate)))
-        for _, _, frames in feeds:
-            frames.start()
-            stack.callback(frames.stop)
+            feeds.append((follower, sender))
+        for _, sender in feeds:
+            if isinstance(sender, QueuedSender):
+                frames = SyntheticFrames(sender.offer, options.frame_bytes, options.rate)
+                frames.start()
+                stack.callback(frames.stop)
         if ready is not None:
             ready.set()
         wait_until_stopped(stop, time_left(deadline), watches.check)
         reached = watches.finish()
-        for follower, sender, _ in feeds:
-            log.info("%s: %d frames offered, %d sent, %d dropped by the full FIFO", follower,
-                     sender.fifo.offered, sender.fifo.sent, sender.fifo.dropped)
+        for follower, sender in feeds:
+            log.info("%s: %s", follower, sender.queue.counts)
     if not reached:
         raise NoRouterReached
 

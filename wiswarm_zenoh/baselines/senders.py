@@ -1,6 +1,7 @@
 """The follower side of the push baselines: frames stamped into the FIFO of ``fifo.py``
-and sent in order over Zenoh ``put``, plain UDP or plain TCP. Nobody schedules who
-talks: that is what is being compared with polling."""
+(or, newest only, the slot of one of ``newest.py``) and sent over Zenoh ``put``, plain
+UDP or plain TCP. Nobody schedules who talks: that is what is being compared with
+polling."""
 
 from __future__ import annotations
 
@@ -9,12 +10,14 @@ import logging
 import socket
 import threading
 import time
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Any
 
 import zenoh
 
-from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY, FifoSender
+from wiswarm_zenoh.baselines.fifo import DEFAULT_CAPACITY, FrameFifo
+from wiswarm_zenoh.baselines.newest import NEWEST_SEND_BUFFER, NewestPump
 from wiswarm_zenoh.baselines.stamp import (
     LENGTH,
     STAMP,
@@ -36,8 +39,38 @@ CONGESTION: dict[str, dict[str, Any]] = {
               "reliability": zenoh.Reliability.RELIABLE},
     "drop": {},
 }
+# Newest only, a frame must wait in the slot, not beneath the put: Zenoh's tx queue of
+# data (2 batches of up to 64 KiB by default) down to one, and the TCP send buffer of
+# its links (the kernel's, autotuned up to megabytes: dozens of frames) down to
+# NEWEST_SEND_BUFFER. The session's --cfg entries come after, and win.
+NEWEST_ZENOH = ("transport/link/tx/queue/size/data:1",
+                f"transport/link/tcp/so_sndbuf:{NEWEST_SEND_BUFFER}")
 CONNECT_TIMEOUT = 5.0  # seconds for one TCP connection attempt
 RECONNECT_MAX = 0.5  # seconds between TCP connection attempts, at most (a refusal is cheap)
+
+
+class QueuedSender(ABC):
+    """Frames stamped into a FIFO of ``capacity`` (None: newest only, a slot of one) in
+    front of a transport: a subclass sends one frame (``_send``) and lets go of the
+    transport (``_release``), both on the queue's thread."""
+
+    def __init__(self, name: str, capacity: int | None, clock: Callable[[], float]) -> None:
+        self.queue: FrameFifo | NewestPump[bytes] = (
+            NewestPump(name, self._send, clock, self._release) if capacity is None
+            else FrameFifo(name, self._send, capacity, clock, self._release))
+
+    def offer(self, payload: bytes) -> bool:
+        """Queue a frame stamped now; False if it was dropped (a full FIFO)."""
+        return self.queue.offer(payload)
+
+    @abstractmethod
+    def _send(self, payload: bytes, generated_at: float, seq: int) -> None: ...
+
+    @abstractmethod
+    def _release(self) -> None: ...
+
+    def close(self) -> None:
+        self.queue.close()
 
 
 def resolve(address: str, kind: socket.SocketKind) -> tuple[socket.AddressFamily, Any]:
@@ -47,14 +80,19 @@ def resolve(address: str, kind: socket.SocketKind) -> tuple[socket.AddressFamily
     return family, where
 
 
-class PushSender(FifoSender):
-    """Zenoh ``put`` on ``wiswarm/<swarm>/<id>/push``, the ``<dQ`` stamp as attachment."""
+class PushSender(QueuedSender):
+    """Zenoh ``put`` on ``wiswarm/<swarm>/<id>/push``, the ``<dQ`` stamp as attachment.
+    Newest only (``capacity`` None), the put blocks: the slot must wait for the path
+    (``NEWEST_ZENOH`` keeps the queues under the put small)."""
 
     def __init__(self, session: zenoh.Session, swarm: str, follower: str,
-                 congestion: str = "block", capacity: int = DEFAULT_CAPACITY,
+                 congestion: str = "block", capacity: int | None = DEFAULT_CAPACITY,
                  clock: Callable[[], float] = time.time) -> None:
         if congestion not in CONGESTION:
             raise ValueError(f"congestion must be block or drop, got {congestion!r}")
+        if capacity is None and congestion != "block":
+            raise ValueError("newest only needs congestion block: a dropped put would "
+                             "empty the slot for nothing")
         self.key = push_key(SwarmKeys(swarm), follower)
         self._publisher = session.declare_publisher(self.key, **CONGESTION[congestion])
         super().__init__(follower, capacity, clock)
@@ -72,7 +110,7 @@ class PushSender(FifoSender):
         undeclare(self._publisher)
 
 
-class UdpSender(FifoSender):
+class UdpSender(QueuedSender):
     """One datagram per frame to the receiver (the kernel IP-fragments it): the paper's
     best WiFi-UDP setting; a lost fragment loses the frame."""
 
@@ -101,13 +139,19 @@ class UdpSender(FifoSender):
         self._socket.close()
 
 
-class TcpSender(FifoSender):
+class TcpSender(QueuedSender):
     """One TCP connection to the receiver, length-prefixed frames, TCP_NODELAY; when the
     receiver goes away, the frame being sent is lost and the sender reconnects with
-    backoff (logged)."""
+    backoff (logged). ``send_buffer`` sets SO_SNDBUF (None: the kernel's, autotuned up
+    to megabytes): newest only, a small one keeps frames waiting in the slot, where a
+    newer one replaces them, not in the kernel."""
 
-    def __init__(self, follower: str, receiver: str, capacity: int = DEFAULT_CAPACITY,
-                 clock: Callable[[], float] = time.time) -> None:
+    def __init__(self, follower: str, receiver: str, capacity: int | None = DEFAULT_CAPACITY,
+                 clock: Callable[[], float] = time.time,
+                 send_buffer: int | None = None) -> None:
+        if send_buffer is not None and send_buffer < 1:
+            raise ValueError(f"send_buffer must be >= 1 byte, got {send_buffer}")
+        self._send_buffer = send_buffer
         self._name = sender_id(follower)
         self._receiver = receiver
         self._address = parse_address(receiver)
@@ -134,6 +178,8 @@ class TcpSender(FifoSender):
                 continue
             sock.settimeout(None)
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            if self._send_buffer is not None:
+                sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, self._send_buffer)
             log.info("%s: connected to %s (attempt %d)", self._name.decode(), self._receiver,
                      attempts)
             with self._lock:

@@ -1,8 +1,9 @@
 """``wiswarm router | leader | follower | swarm-demo``: the middleware's processes.
 
 ``--system push|udp|tcp`` turns a follower into a baseline a Zenoh user would pick
-instead of polling (frames pushed at a fixed rate) and a leader into its receiver,
-which publishes the same stats as the polling leader.
+instead of polling (frames pushed at a fixed rate, or with ``--newest-only`` each
+frame sent once the previous send completed) and a leader into its receiver, which
+publishes the same stats as the polling leader.
 
 Zenoh flags follow zenoh-python's examples (-m/-e/-l/-c/--cfg/--no-multicast-scouting).
 Without -e or -c, leader and follower connect to a router on this machine
@@ -24,6 +25,7 @@ from wiswarm_zenoh.baselines import (
     CONGESTION,
     DEFAULT_BIND,
     DEFAULT_CAPACITY,
+    NEWEST_SEND_BUFFER,
     BaselineFollowerOptions,
     Receiver,
     ReceiverOptions,
@@ -60,6 +62,7 @@ from wiswarm_zenoh.programs.runners import (
     run_router,
 )
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
+from wiswarm_zenoh.ros2.newest_push import republished_topic
 from wiswarm_zenoh.security.checks import check_identity, check_swarm, check_upstream
 from wiswarm_zenoh.transport.zenoh_config import (
     LOCAL_ROUTER,
@@ -80,7 +83,8 @@ LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wisw
                "bind": ("udp", "tcp")}
 FOLLOWER_ONLY = {"queue": ("wiswarm",), "fragment_size": ("wiswarm",),
                  "congestion": ("push",), "to": ("udp", "tcp"), "source": ("wiswarm",),
-                 "ros2_topic": ("wiswarm",), "ros2_waypoints": ("wiswarm",)}
+                 "ros2_topic": ("wiswarm", "push"), "ros2_waypoints": ("wiswarm",),
+                 "newest_only": ("push", "tcp"), "send_buffer": ("tcp",)}
 
 
 def _add_common(parser: argparse.ArgumentParser, modes: tuple[str, ...]) -> None:
@@ -208,20 +212,48 @@ def _leader(args: argparse.Namespace) -> int:
     return 0
 
 
+def _check_newest_only(args: argparse.Namespace) -> None:
+    """Flags that --newest-only excludes, or needs."""
+    if args.newest_only:
+        if args.congestion == "drop":
+            raise UsageError("--newest-only sends each frame once the previous put "
+                             "completed: it needs --congestion block (the default), not drop")
+        if args.capacity is not None:
+            raise UsageError("--capacity sizes the FIFO: --newest-only keeps one frame, "
+                             "the newest")
+    elif args.send_buffer is not None:
+        raise UsageError("--send-buffer is for --newest-only")
+    elif args.ros2_topic is not None:
+        raise UsageError("--ros2-topic with --system push needs --newest-only")
+
+
 def _baseline_follower(args: argparse.Namespace) -> int:
-    """``wiswarm follower --system push|udp|tcp``: frames pushed at ``--rate``."""
+    """``wiswarm follower --system push|udp|tcp``: frames pushed at ``--rate`` (newest
+    only: each once the previous send completed), or the robot's ROS 2 topic."""
     if args.system != "push" and args.to is None:
         raise UsageError(f"--system {args.system} needs --to HOST:PORT (where "
                          f"wiswarm leader --system {args.system} listens)")
+    _check_newest_only(args)
+    source = source_of(args)
+    newest = bool(args.newest_only)
     options = _checked(BaselineFollowerOptions, args.swarm, (args.id,), args.system,
-                       args.rate or BASELINE_RATE, args.congestion or "block",
-                       args.frame_bytes, args.to, args.capacity or DEFAULT_CAPACITY,
-                       args.duration)
+                       args.rate or (FRAME_RATE if newest else BASELINE_RATE),
+                       args.congestion or "block", args.frame_bytes, args.to,
+                       args.capacity or DEFAULT_CAPACITY, args.duration, newest,
+                       args.send_buffer or NEWEST_SEND_BUFFER, source)
     spec = _spec(args, "peer")
     how = f"{options.congestion} put" if args.system == "push" else f"to {args.to}"
+    what = f"{args.frame_bytes}-byte frames at {options.rate:g} Hz"
+    if source is not None:
+        what = f"the samples of {args.ros2_topic}"
+        how += f" on {republished_topic(args.swarm, args.id, args.ros2_topic)}"
+    queue = f" into a FIFO of {options.capacity}"
+    if newest:
+        queue = ", newest only" + (f", send buffer {options.send_buffer} B"
+                                   if args.system == "tcp" else "")
     run_baseline_followers(spec, options, threading.Event(), _Announce(
-        f"wiswarm follower {args.id}: {args.frame_bytes}-byte frames at {options.rate:g} Hz "
-        f"into a FIFO of {options.capacity}, {args.system} ({how}) (Ctrl-C to stop)"))
+        f"wiswarm follower {args.id}: {what}{queue}, {args.system} ({how}) (Ctrl-C to "
+        "stop)"))
     return 0
 
 
@@ -329,13 +361,29 @@ def register(subparsers: Any) -> None:
         "push, udp and tcp are the baselines: every frame is stamped into a FIFO of "
         f"--capacity frames (default {DEFAULT_CAPACITY}; a full FIFO drops the new frame) "
         "and sent in order, by Zenoh put (push) or plain sockets to --to (udp: one "
-        "datagram a frame; tcp: one connection).")
+        "datagram a frame; tcp: one connection). push and tcp --newest-only keep only the "
+        "newest frame instead and send it the moment the previous send completed.")
     _add_swarm(follower)
     follower.add_argument("--id", required=True, type=node_name("follower id", follower=True),
                           help="this follower's id (a key chunk)")
     follower.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                           help="wiswarm: answer polls (default); push: put every frame on "
                           "wiswarm/<swarm>/<id>/push; udp/tcp: send every frame to --to")
+    follower.add_argument("--newest-only", action="store_true", default=None,
+                          help="push/tcp: keep only the newest frame (a newer one replaces "
+                          "it, an older one never does) and send it the moment the previous "
+                          "send completed: the rate adapts to the path, nothing to tune "
+                          f"(--rate is the camera's, default {FRAME_RATE:g}). push: the put "
+                          "blocks (congestion block), over one batch of Zenoh tx queue and "
+                          f"a {NEWEST_SEND_BUFFER}-byte TCP send buffer (--cfg overrides); "
+                          "with --ros2-topic TOPIC, the robot's samples go as they came, as "
+                          "a ROS 2 topic where a WiSwarm leader's --ros2 republishes it: "
+                          "/wiswarm/<swarm>/<id>TOPIC")
+    follower.add_argument("--send-buffer", type=positive_int(), metavar="BYTES",
+                          help="tcp --newest-only: the socket's SO_SNDBUF (default "
+                          f"{NEWEST_SEND_BUFFER}; the kernel doubles it), small so that a "
+                          "frame waits in the slot, where a newer one replaces it, not in "
+                          "the kernel")
     follower.add_argument("--congestion", choices=sorted(CONGESTION),
                           help="push: block (reliable, the put waits while Zenoh's queues "
                           "are full: the paper's WiFi-TCP; default) or drop (a plain put: "
@@ -346,10 +394,11 @@ def register(subparsers: Any) -> None:
                           help="wiswarm: the follower's queue (default lifo)")
     follower.add_argument("--capacity", type=positive_int(),
                           help=f"queue capacity (default 1; push/udp/tcp: a FIFO of "
-                          f"{DEFAULT_CAPACITY})")
+                          f"{DEFAULT_CAPACITY}; not with --newest-only)")
     follower.add_argument("--rate", type=positive_float(MAX_RATE_HZ),
                           help=f"frames per second (default {FRAME_RATE:g}; push/udp/tcp: "
-                          f"{BASELINE_RATE:g}, the paper's), and a wiswarm FIFO's rate control")
+                          f"{BASELINE_RATE:g}, the paper's, but {FRAME_RATE:g} with "
+                          "--newest-only), and a wiswarm FIFO's rate control")
     follower.add_argument("--fragment-size", type=positive_int(),
                           help="wiswarm: bytes per reply (default "
                           f"{FollowerConfig().fragment_size})")

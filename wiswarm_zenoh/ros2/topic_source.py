@@ -16,6 +16,7 @@ from __future__ import annotations
 import logging
 import re
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import zenoh
@@ -31,6 +32,7 @@ from wiswarm_zenoh.ros2.graph import (
     unmangle,
 )
 from wiswarm_zenoh.ros2.messages import NS_PER_S, RosType
+from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.entities import Declared, undeclare
 from wiswarm_zenoh.transport.follower_node import FollowerNode
@@ -86,18 +88,19 @@ class Ros2TopicSource:
         return TopicFeed(session, self, node)
 
 
-class TopicFeed(Feed):
-    """Feeds ``node`` with ``source``'s samples until ``close()``; ``type`` is the
-    topic's type once found."""
+class TopicWatch:
+    """The samples of ``source``'s topic, of its type only (found as the module says):
+    ``on_sample(cdr, source_ns, type)`` for each (on Zenoh's thread; ``source_ns`` None
+    where the attachment gives no source time, reported in ``bad_input``) and, once,
+    ``on_type(type)`` when the type is found, under a lock that ``close`` takes too.
+    ``who`` names the follower in the log."""
 
-    def __init__(self, session: zenoh.Session, source: Ros2TopicSource,
-                 node: FollowerNode) -> None:
-        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})",
-                         "`ros2 topic list` on the robot lists its topics")
-        self._session, self._source, self._node = session, source, node
+    def __init__(self, session: zenoh.Session, source: Ros2TopicSource, who: str,
+                 bad_input: BadInputLog, on_sample: Callable[[bytes, int | None, RosType], object],
+                 on_type: Callable[[RosType], object] = lambda kind: None) -> None:
+        self._source, self._who, self._bad_input = source, who, bad_input
+        self._on_sample_of, self._on_type = on_sample, on_type
         self.type: RosType | None = None
-        self._data_key = ""
-        self._token: Declared | None = None
         self._found = threading.Lock()
         self._closed = False
         self._data = session.declare_subscriber(
@@ -114,45 +117,76 @@ class TopicFeed(Feed):
             self._found_on(parts[-3], parts[-2], "a publisher's liveliness token")
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        arrived_at = self.now()
         key = str(sample.key_expr)
         _, dds_name, type_hash = key.rsplit("/", 2)
-        if not self._found_on(dds_name, type_hash, "its first data key"):
-            kind = self.type
-            self._node.bad_input.report(key, "a data key that names no message type"
-                                        if kind is None else
-                                        f"another type than the topic's {kind.name}")
+        kind = self._found_on(dds_name, type_hash, "its first data key")
+        if kind is None:
+            known = self.type
+            self._bad_input.report(key, "a data key that names no message type"
+                                   if known is None else
+                                   f"another type than the topic's {known.name}")
             return
-        generated_at = arrived_at
+        source_ns: int | None = None
         attached = sample.attachment
         try:
             if attached is None:
                 raise ValueError("no attachment")
-            generated_at = source_time_ns(attached.to_bytes()) / NS_PER_S
+            source_ns = source_time_ns(attached.to_bytes())
         except ValueError as exc:  # served, stamped at its arrival
-            self._node.bad_input.report(key, f"{exc}: stamped at its arrival")
-        self.offer(sample.payload.to_bytes(), generated_at, arrived_at)
+            self._bad_input.report(key, f"{exc}: stamped at its arrival")
+        self._on_sample_of(sample.payload.to_bytes(), source_ns, kind)
 
-    def _found_on(self, dds_name: str, type_hash: str, how: str) -> bool:
-        """Whether the type named is the topic's (the first one named becomes it)."""
+    def _found_on(self, dds_name: str, type_hash: str, how: str) -> RosType | None:
+        """The topic's type if it is the one named (the first one named becomes it)."""
         with self._found:
             if self.type is not None:
-                return (dds_name, type_hash) == (self.type.dds_name, self.type.hash)
+                same = (dds_name, type_hash) == (self.type.dds_name, self.type.hash)
+                return self.type if same else None
             kind = found_type(dds_name, type_hash)
             if kind is None or self._closed:
-                return False
+                return None
             self.type = kind
-            self._token = self._session.liveliness().declare_token(source_token(
-                self._node.keys, self._node.follower_id, self._source.topic, kind))
-        log.info("follower %s: ROS 2 topic %s is a %s (%s), found by %s",
-                 self._node.follower_id, self._source.topic, kind.name, kind.hash, how)
-        return True
+            self._on_type(kind)
+        log.info("%s: ROS 2 topic %s is a %s (%s), found by %s", self._who,
+                 self._source.topic, kind.name, kind.hash, how)
+        return kind
 
     def close(self) -> None:
+        """No ``on_sample`` starts, nor ``on_type``, once this returns."""
         self._publishers.close()
         undeclare(self._data)
         with self._found:
             self._closed = True
-            if self._token is not None:
-                undeclare(self._token)
+
+
+class TopicFeed(Feed):
+    """Feeds ``node`` with ``source``'s samples until ``close()``; ``type`` is the
+    topic's type once found."""
+
+    def __init__(self, session: zenoh.Session, source: Ros2TopicSource,
+                 node: FollowerNode) -> None:
+        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})",
+                         "`ros2 topic list` on the robot lists its topics")
+        self._session, self._source, self._node = session, source, node
+        self._token: Declared | None = None
+        self._watch = TopicWatch(session, source, f"follower {node.follower_id}",
+                                 node.bad_input, self._on_sample, self._on_type)
+
+    @property
+    def type(self) -> RosType | None:
+        return self._watch.type
+
+    def _on_type(self, kind: RosType) -> None:
+        self._token = self._session.liveliness().declare_token(source_token(
+            self._node.keys, self._node.follower_id, self._source.topic, kind))
+
+    def _on_sample(self, payload: bytes, source_ns: int | None, kind: RosType) -> None:
+        arrived_at = self.now()
+        self.offer(payload, arrived_at if source_ns is None else source_ns / NS_PER_S,
+                   arrived_at)
+
+    def close(self) -> None:
+        self._watch.close()
+        if self._token is not None:
+            undeclare(self._token)
         self.closed()
