@@ -39,7 +39,9 @@ from wiswarm_zenoh.sim.link import LinkParams, LinkScenario, run_link
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.scenario import (
     DEFAULT_RELIABILITY,
+    NEWEST_SEND_BUFFER,
     PAPER_FRAME_BYTES,
+    RATELESS_SYSTEMS,
     SYSTEMS,
     WifiScenario,
     run_wifi,
@@ -85,13 +87,16 @@ def _print_wifi(result: WifiResult) -> None:
 
 def _workload(args: argparse.Namespace) -> dict[str, Any]:
     """The flags every channel's run takes (``_add_workload``), as scenario fields."""
-    if args.system == "wiswarm" and args.rate is not None:
-        raise UsageError("--rate is the push rate of udp and tcp; WiSwarm samples at --sample-rate")
+    if args.system in RATELESS_SYSTEMS and args.rate is not None:
+        raise UsageError(f"--rate is the push rate of udp and tcp; {args.system} samples at "
+                         "--sample-rate")
+    if args.system != "newest" and args.send_buffer is not None:
+        raise UsageError("--send-buffer is newest's")
     return {
         "n": args.n, "system": args.system, "rate": 50.0 if args.rate is None else args.rate,
         "frame_bytes": args.frame_bytes, "duration": args.duration, "seed": args.seed,
         "fifo_frames": args.fifo_frames, "sample_rate": args.sample_rate,
-        "policy": args.policy,
+        "policy": args.policy, "send_buffer": args.send_buffer or NEWEST_SEND_BUFFER,
     }
 
 
@@ -138,7 +143,9 @@ def _add_workload(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n", type=positive_int(), required=True,
                         help="number of followers (UAVs)")
     parser.add_argument("--system", default="wiswarm", choices=SYSTEMS,
-                        help="the system simulated (default wiswarm)")
+                        help="the system simulated (default wiswarm); newest: each "
+                        "follower sends its camera's newest frame over TCP the moment its "
+                        "previous send completed (no rate to tune)")
     parser.add_argument("--rate", type=positive_float(),
                         help="udp/tcp frames per second (default 50)")
     parser.add_argument("--frame-bytes", type=positive_int(), default=PAPER_FRAME_BYTES,
@@ -149,7 +156,10 @@ def _add_workload(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fifo-frames", type=positive_int(),
                         help="bound the baselines' FIFO (default unbounded)")
     parser.add_argument("--sample-rate", type=positive_float(), default=100.0,
-                        help="WiSwarm cameras, fps (default 100)")
+                        help="WiSwarm's and newest's cameras, fps (default 100)")
+    parser.add_argument("--send-buffer", type=positive_int(), metavar="BYTES",
+                        help=f"newest: SO_SNDBUF (default {NEWEST_SEND_BUFFER}; the kernel "
+                        "doubles it), small so that a frame waits in the slot, not in TCP")
     parser.add_argument("--policy", default="whittle", choices=sorted(POLICIES),
                         help="WiSwarm's scheduling policy (default whittle)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")

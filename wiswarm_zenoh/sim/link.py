@@ -45,7 +45,13 @@ from wiswarm_zenoh.sim.engine import Engine
 from wiswarm_zenoh.sim.medium import Mpdu, Station
 from wiswarm_zenoh.sim.metrics import WifiResult
 from wiswarm_zenoh.sim.phy import IP_HEADER, TCP_HEADER, udp_fragments
-from wiswarm_zenoh.sim.scenario import Workload, result_of, start_system
+from wiswarm_zenoh.sim.scenario import (
+    RATELESS_SYSTEMS,
+    TCP_SYSTEMS,
+    Workload,
+    result_of,
+    start_system,
+)
 from wiswarm_zenoh.sim.udp import UdpPush
 from wiswarm_zenoh.token_bucket import TokenBucket
 from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
@@ -306,7 +312,7 @@ def run_link(s: LinkScenario) -> WifiResult:
     engine = Engine(rng.getrandbits(64))
     medium = LinkMedium(engine, s.link)
     leader = medium.station("leader", downlink=True)
-    limit = TCP_SMALL_QUEUE_PACKETS if s.system == "tcp" else None
+    limit = TCP_SMALL_QUEUE_PACKETS if s.system in TCP_SYSTEMS else None
     stations = [medium.station(f"uav{i}", limit) for i in range(s.n)]
     costs = ZenohAirtime(s.link) if s.system == "wiswarm" else LinkAirtime(s.link)
     sinks, net = start_system(s, engine, medium, costs, leader, stations, [1.0] * s.n, rng,
@@ -318,12 +324,12 @@ def run_link(s: LinkScenario) -> WifiResult:
 def link_curve(ns: Sequence[int], systems: Sequence[tuple[str, float | None]],
                link: LinkParams, frame_bytes: int, duration: float, seed: int
                ) -> list[WifiResult]:
-    """The model's run for every N and every (system, push rate; None for WiSwarm), N
-    outermost: the curve a testbed report draws beside what it measured."""
+    """The model's run for every N and every (system, push rate; None for WiSwarm and
+    newest), N outermost: the curve a testbed report draws beside what it measured."""
     results = []
     for n in ns:
         for system, rate in systems:
-            if (rate is None) != (system == "wiswarm"):
+            if (rate is None) != (system in RATELESS_SYSTEMS):
                 wanted = "a push rate" if rate is None else "no push rate (None)"
                 raise ValueError(f"rate: {system} takes {wanted}, got {rate}")
             s = LinkScenario(n=n, system=system, frame_bytes=frame_bytes, duration=duration,

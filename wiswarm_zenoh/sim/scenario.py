@@ -1,5 +1,9 @@
 """One run over the ``wifi`` channel: WiSwarm or a push baseline, N followers, one seed.
 
+``newest`` is the adaptive baseline: each follower keeps only its camera's newest frame
+(WiSwarm's camera, ``sample_rate``) and writes it to TCP through a small send buffer the
+moment its previous write completed, so it has no rate to tune.
+
 ``Workload``, ``start_system`` and ``result_of`` are what a run is on any channel model
 (the ``link`` model shares them): the system, its followers' cameras, and its metrics.
 """
@@ -20,12 +24,17 @@ from wiswarm_zenoh.sim.medium import Medium, Station
 from wiswarm_zenoh.sim.metrics import FollowerMetrics, WifiResult
 from wiswarm_zenoh.sim.phy import Airtime, WifiParams
 from wiswarm_zenoh.sim.slotted import check_range
-from wiswarm_zenoh.sim.source import PeriodicFifo
+from wiswarm_zenoh.sim.source import PeriodicFifo, PeriodicNewest
 from wiswarm_zenoh.sim.tcp import TcpFlow
 from wiswarm_zenoh.sim.udp import UdpPush
 from wiswarm_zenoh.sim.wiswarm import STAMP, WiswarmNetwork
 
-SYSTEMS = ("wiswarm", "udp", "tcp")
+SYSTEMS = ("wiswarm", "udp", "tcp", "newest")
+TCP_SYSTEMS = ("tcp", "newest")
+RATELESS_SYSTEMS = ("wiswarm", "newest")  # their cameras' sample_rate: no push rate
+# newest: bytes of SO_SNDBUF asked for (``wiswarm follower --newest-only``'s default);
+# the kernel doubles it, and its bookkeeping overhead is left out.
+NEWEST_SEND_BUFFER = 16384
 PAPER_FRAME_BYTES = 224 * 224  # the paper's grayscale frames, 49 kB
 # Per-attempt MAC frame success on each follower's link, drawn per follower: rate
 # adaptation (e.g. minstrel) settles near 10 % frame loss, here with some spread.
@@ -42,12 +51,13 @@ class Workload:
 
     n: int
     system: str = "wiswarm"
-    rate: float = 50.0  # push baselines: frames per second into the FIFO
+    rate: float = 50.0  # udp and tcp: frames per second into the FIFO
     frame_bytes: int = PAPER_FRAME_BYTES
     duration: float = 240.0
     seed: int = 0
     fifo_frames: int | None = None  # the baselines' application FIFO (None: unbounded)
-    sample_rate: float = 100.0  # WiSwarm cameras
+    sample_rate: float = 100.0  # WiSwarm's and newest's cameras
+    send_buffer: int = NEWEST_SEND_BUFFER  # newest: bytes of SO_SNDBUF
     host_delay: float = DEFAULT_HOST_DELAY
     policy: str = "whittle"
     follower_config: FollowerConfig = field(default_factory=FollowerConfig)
@@ -78,6 +88,10 @@ class Workload:
             )
         if self.fifo_frames is not None and self.fifo_frames < 1:
             raise ValueError(f"fifo_frames must be >= 1, got {self.fifo_frames}")
+        if self.fifo_frames is not None and self.system == "newest":
+            raise ValueError("fifo_frames: newest keeps one frame, the newest")
+        if self.send_buffer < 1:
+            raise ValueError(f"send_buffer must be >= 1 byte, got {self.send_buffer}")
         self.leader_config()
 
     def leader_config(self) -> LeaderConfig:
@@ -123,13 +137,16 @@ def start_system(
         )
         net.start()
         return sinks, net
+    newest = s.system == "newest"
     for i, station in enumerate(stations):
-        fifo = PeriodicFifo(s.rate, rng.random() / s.rate, s.fifo_frames)
+        fifo = (PeriodicNewest(s.sample_rate, rng.random() / s.sample_rate) if newest
+                else PeriodicFifo(s.rate, rng.random() / s.rate, s.fifo_frames))
         if s.system == "udp":
             udp(engine, channel, station, fifo, costs, s.frame_bytes, p[i], sinks[i]).start()
         else:
             TcpFlow(
-                engine, channel, station, leader, fifo, costs, s.frame_bytes, p[i], sinks[i]
+                engine, channel, station, leader, fifo, costs, s.frame_bytes, p[i], sinks[i],
+                2 * s.send_buffer if newest else None,
             ).start()
     return sinks, None
 
@@ -149,7 +166,7 @@ def result_of(
         channel["timeouts"] = float(sum(net.leader.stats(f, s.duration).timeouts
                                         for f in net.leader.followers))
     return WifiResult(
-        system=s.system, n=s.n, rate=None if s.system == "wiswarm" else s.rate,
+        system=s.system, n=s.n, rate=None if s.system in RATELESS_SYSTEMS else s.rate,
         frame_bytes=s.frame_bytes, duration=s.duration, seed=s.seed, followers=followers,
         channel=channel,
     )

@@ -1,4 +1,5 @@
-"""A camera that produces frames at a fixed rate into an application FIFO.
+"""A camera that produces frames at a fixed rate into an application FIFO, or into a
+slot of one that keeps the newest (``PeriodicNewest``).
 
 Frames are admitted lazily, when the sender asks for one: frames generated since the
 last request enter the FIFO until it is full and the rest are dropped at the tail,
@@ -69,3 +70,23 @@ class PeriodicFifo:
     def next_frame_time(self, now: float) -> float:
         """Generation time of the first frame after ``now``."""
         return self.phase + self.generated(now) * self.period
+
+
+class PeriodicNewest(PeriodicFifo):
+    """The newest-only baseline's camera: a slot of one where a newer frame replaces the
+    one waiting (``dropped`` counts the frames replaced unsent), so ``pull`` gives the
+    newest frame not yet pulled."""
+
+    def __init__(self, rate: float, phase: float) -> None:
+        super().__init__(rate, phase, 1)
+
+    def _admit(self, now: float) -> None:
+        total = self.generated(now)
+        new = total - self._considered
+        if new <= 0:
+            return
+        self.dropped += self._length + new - 1
+        self._runs.clear()
+        self._runs.append([total - 1, total])
+        self._length = 1
+        self._considered = total

@@ -7,6 +7,11 @@ receiver at the leader ACKs every second in-order segment at once (40 ms delayed
 timer otherwise) and every out-of-order segment; ACKs are MAC frames from the leader's
 station and contend for the medium like any data. Frames start on a segment boundary
 and are handed to the application when all their bytes have arrived in order.
+
+A small send buffer (``send_buffer``, newest only) bounds the bytes written and not yet
+acknowledged: the window is at most what it holds, and the application writes its next
+frame the moment the previous one is all in it (its blocking send returned), taking the
+newest from its camera's slot; the kernel's own buffer (None) never binds here.
 """
 
 from __future__ import annotations
@@ -44,10 +49,12 @@ class TcpFlow(PushFlow):
         frame_bytes: int,
         p_success: float,
         sink: FrameSink,
+        send_buffer: int | None = None,
     ) -> None:
         super().__init__(engine, medium, station, fifo, p_success, sink)
         self._leader = leader
         mss = airtime.tcp_mss
+        self._buffer = None if send_buffer is None else max(send_buffer // mss, 1)  # segments
         self._frame_segments = -(-frame_bytes // mss)
         last = frame_bytes - (self._frame_segments - 1) * mss
         self._busy_full = airtime.unicast_busy(mss + IP_HEADER + TCP_HEADER)
@@ -85,18 +92,31 @@ class TcpFlow(PushFlow):
     # ---- sender -------------------------------------------------------------------
     def _pump(self) -> None:
         now = self._engine.now
+        if self._buffer is not None:
+            self._write(now, self._buffer)
         while self._station.room() > 0:
             if self._retransmit:
                 self._retransmit = False
                 self._send_segment(self._una, now)
                 continue
-            if self._nxt - self._una >= int(self._cwnd):
+            if self._nxt - self._una >= self._window():
                 return
             if self._nxt == self._stream_end and not self._pull_frame(now):
                 return
             self._send_segment(self._nxt, now)
             self._nxt += 1
             self._high = max(self._high, self._nxt)
+
+    def _window(self) -> int:
+        cwnd = int(self._cwnd)
+        return cwnd if self._buffer is None else min(cwnd, self._buffer)
+
+    def _write(self, now: float, buffer: int) -> None:
+        """The application's blocking sends into a send buffer of ``buffer`` segments:
+        the next frame goes in once what was written before fits."""
+        while self._stream_end - self._una <= buffer:
+            if not self._pull_frame(now):
+                return
 
     def _pull_frame(self, now: float) -> bool:
         gen = self._fifo.pull(now)
