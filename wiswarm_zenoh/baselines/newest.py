@@ -23,7 +23,9 @@ from wiswarm_zenoh.baselines.fifo import FramePump, P, Send
 
 # Bytes of SO_SNDBUF beneath a newest-only sender (the kernel doubles it): well under a
 # frame, so that a frame waits in the slot, where a newer one replaces it, not in the
-# kernel; yet a few milliseconds of a 20 Mbit/s link, enough to keep it busy.
+# kernel; yet a few milliseconds of a 20 Mbit/s link, enough to keep it busy. Over TCP
+# on the tbf channel (20 Mbit/s, N = 4, 50 KB frames at 100 fps): mean AoI 161 ms,
+# against 7.3 s with 4 MiB (about what the kernel autotunes to), at the same throughput.
 NEWEST_SEND_BUFFER = 16384
 
 class NewestSlot(Generic[P]):

@@ -42,7 +42,9 @@ CONGESTION: dict[str, dict[str, Any]] = {
 # Newest only, a frame must wait in the slot, not beneath the put: Zenoh's tx queue of
 # data (2 batches of up to 64 KiB by default) down to one, and the TCP send buffer of
 # its links (the kernel's, autotuned up to megabytes: dozens of frames) down to
-# NEWEST_SEND_BUFFER. The session's --cfg entries come after, and win.
+# NEWEST_SEND_BUFFER. The session's --cfg entries come after, and win. Measured on the
+# tbf channel (20 Mbit/s, 200 ms queue; N = 4, 50 KB frames at 100 fps, 20 s): mean
+# AoI 246 ms with both, 330 ms with Zenoh's two batches, 1180 ms with neither.
 NEWEST_ZENOH = ("transport/link/tx/queue/size/data:1",
                 f"transport/link/tcp/so_sndbuf:{NEWEST_SEND_BUFFER}")
 CONNECT_TIMEOUT = 5.0  # seconds for one TCP connection attempt

@@ -41,6 +41,7 @@ from wiswarm_zenoh.experiments.sweep import FINE_SEARCH_RUNS, PAPER_NS, PAPER_RA
 from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.channel import Channel
 from wiswarm_zenoh.testbed.run import (
+    ADAPTIVE,
     SYSTEMS,
     WISWARM_SAMPLE_RATE,
     RunOutcome,
@@ -53,7 +54,7 @@ from wiswarm_zenoh.testbed.wifi_spec import WifiSpec
 
 log = logging.getLogger(__name__)
 
-BASELINES = tuple(s for s in SYSTEMS if s != "wiswarm")
+BASELINES = tuple(s for s in SYSTEMS if s != "wiswarm")  # newest only too (ADAPTIVE)
 FRAME_OVERHEAD = 1.04  # headers per byte of frame on the wire (Zenoh, TCP/IP, Ethernet)
 
 
@@ -111,7 +112,8 @@ class StudyConfig:
 
     @property
     def estimated_runs(self) -> int:
-        per_n = 1 + len(self.baselines) * (1 + SEARCH_RUNS[self.search])
+        searches = sum(system not in ADAPTIVE for system in self.baselines)
+        per_n = 1 + len(self.baselines) + searches * SEARCH_RUNS[self.search]
         return per_n * len(self.ns) * self.batches
 
 
@@ -120,12 +122,14 @@ Measure = Callable[[RunSpec], RunOutcome]
 
 @dataclass
 class Job:
-    """Work for one worker: a single run, or the best-rate search of one baseline."""
+    """Work for one worker: a single run at ``rate`` (None: the camera's, as WiSwarm and
+    newest only run), or the best-rate search of one baseline."""
 
     system: str
     n: int
     batch: int
     search: bool = False
+    rate: float | None = None
 
 
 def best_of_grid(grid: Sequence[float], share: float, cost: Callable[[float], float]
@@ -178,14 +182,17 @@ def searched(config: StudyConfig, results: StudyResults, system: str, n: int, ba
 
 
 def plan(config: StudyConfig) -> Iterator[Job]:
-    """Every job, N by N: WiSwarm, the fixed-rate baselines, then the searches."""
+    """Every job, N by N: WiSwarm, the baselines at the fixed rate (newest only at the
+    camera's: it adapts), then the searches (none for newest only: no rate to find)."""
     for n in config.ns:
         for batch in range(config.batches):
             yield Job("wiswarm", n, batch)
             for system in config.baselines:
-                yield Job(system, n, batch)
+                yield Job(system, n, batch,
+                          rate=None if system in ADAPTIVE else config.fixed_rate)
             for system in config.baselines:
-                yield Job(system, n, batch, search=True)
+                if system not in ADAPTIVE:
+                    yield Job(system, n, batch, search=True)
 
 
 @dataclass
@@ -258,8 +265,7 @@ def run_study(config: StudyConfig, workdir: Path, progress: Callable[[int, int],
                         with results.lock:
                             results.best[(job.system, job.n, job.batch)] = best
                     else:
-                        rate = None if job.system == "wiswarm" else config.fixed_rate
-                        run(config.spec(job.system, job.n, rate, job.batch))
+                        run(config.spec(job.system, job.n, job.rate, job.batch))
         except _Stopped:
             return
         except BaseException as exc:  # reported by the caller, after every worker ended

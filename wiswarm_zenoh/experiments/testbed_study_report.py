@@ -22,7 +22,7 @@ from wiswarm_zenoh.experiments.sweep_report import (
 from wiswarm_zenoh.experiments.testbed_study import StudyConfig, StudyResults, searched
 from wiswarm_zenoh.sim.link import LinkParams, link_curve
 from wiswarm_zenoh.sim.metrics import WifiResult
-from wiswarm_zenoh.testbed.run import failed_line
+from wiswarm_zenoh.testbed.run import ADAPTIVE, WISWARM_SAMPLE_RATE, failed_line
 from wiswarm_zenoh.units import format_rate
 
 log = logging.getLogger(__name__)
@@ -36,13 +36,19 @@ def label_of(result: WifiResult) -> str:
 
 def summarise(config: StudyConfig, results: StudyResults) -> list[Point]:
     """A point per (label, N) over the batches, and ``<baseline>-opt`` at the rate its
-    search chose (or the best measured so far, if the study was cut short)."""
+    search chose (or the best measured so far, if the study was cut short). Newest only
+    has no rate to choose: it adapts, so its one run, at the camera's rate, is its
+    ``-opt`` too (drawn and tabled beside the others' best)."""
     groups: dict[tuple[str, int], list[WifiResult]] = defaultdict(list)
     for outcome in results.outcomes:
         groups[(label_of(outcome.result), outcome.result.n)].append(outcome.result)
     points = [point_of(label, group) for (label, _), group in sorted(groups.items())]
     for n in config.ns:
         for system in config.baselines:
+            if system in ADAPTIVE:
+                points += [Point(f"{system}-opt", n, p.rate, p.mean, p.std) for p in points
+                           if p.n == n and p.label == f"{system}@{WISWARM_SAMPLE_RATE:g}"]
+                continue
             tried = {rate for b in range(config.batches)
                      for rate, _ in searched(config, results, system, n, b)}
             rates = [p for p in points if p.n == n and p.label.startswith(f"{system}@")
@@ -88,7 +94,7 @@ def search_lines(config: StudyConfig, results: StudyResults) -> list[str]:
     """Each search: the rates it ran in order with their mean AoI, and its choice."""
     lines = [f"| N | baseline | batch | {SEARCH_HEAD}", "|---|---|---|---|---|---|"]
     for n in config.ns:
-        for system in config.baselines:
+        for system in (s for s in config.baselines if s not in ADAPTIVE):
             for batch in range(config.batches):
                 tried = searched(config, results, system, n, batch)
                 if not tried:
@@ -190,8 +196,10 @@ def _report_text(config: StudyConfig, results: StudyResults, points: Sequence[Po
         f"{status}{config.batches} batch(es) of {config.duration:g} s after a "
         f"{config.warmup:g} s warm-up, {config.frame_bytes} B frames. Gain = baseline / "
         "WiSwarm for AoI, WiSwarm / baseline for throughput; `-opt` = the rate "
-        f"{SEARCH_NAMES[config.search]} found best at that N. AoI from the generation time "
-        "every frame carries (one host clock).",
+        f"{SEARCH_NAMES[config.search]} found best at that N; newest only (`-newest`: "
+        "each robot's newest frame, sent once its previous send completed) adapts, so "
+        f"it runs once, at the camera's {WISWARM_SAMPLE_RATE:g} fps, and that run is its "
+        "`-opt`. AoI from the generation time every frame carries (one host clock).",
         "",
         gains_table(points, config.fixed_rate, ns, config.baselines),
         "## Each baseline's best rate",

@@ -54,7 +54,9 @@ from wiswarm_zenoh.testbed.wifi import WifiMedium
 
 log = logging.getLogger(__name__)
 
-SYSTEMS = ("wiswarm", "push-block", "push-drop", "udp", "tcp")
+SYSTEMS = ("wiswarm", "push-block", "push-drop", "udp", "tcp", "push-newest", "tcp-newest")
+# Newest only (``baselines.newest``): no rate to choose, it adapts; run at the camera's.
+ADAPTIVE = ("push-newest", "tcp-newest")
 WISWARM_SAMPLE_RATE = 100.0  # the paper: cameras at 100 fps into a LIFO of one
 SWARM = "testbed"
 SUPERVISE_PERIOD = 0.5  # seconds between checks of the processes
@@ -208,15 +210,16 @@ def _start_nodes(children: Children, place: Placement, spec: RunSpec, record: Pa
                            [options[i] for i in indices], wait=False)
         children.wait_ready()
         return
-    kind, _, congestion = spec.system.partition("-")
+    kind, _, variant = spec.system.partition("-")
+    newest = variant == "newest"
     children.start("leader", run_in, place.leader_ns, run_receiver, place.leader(),
                    ReceiverOptions(SWARM, kind, bind=place.socket_receiver, record=str(record)))
     for name, ns, indices in groups:
         children.start(name, run_in, ns, run_baseline_followers, place.follower(),
                        BaselineFollowerOptions(
                            SWARM, tuple(followers[i] for i in indices), kind, spec.rate,
-                           congestion or "block", spec.frame_bytes,
-                           receiver=place.socket_receiver), wait=False)
+                           "block" if newest or not variant else variant, spec.frame_bytes,
+                           receiver=place.socket_receiver, newest_only=newest), wait=False)
     children.wait_ready()
 
 
