@@ -112,14 +112,21 @@ def test_help_explains_the_systems(capsys: pytest.CaptureFixture[str], command: 
         assert word in text
 
 
+@pytest.mark.parametrize(("flags", "announced"), [
+    (["--rate", "50"], "into a FIFO of 64, tcp (to "),
+    (["--newest-only", "--send-buffer", "8192"],
+     "frames at 100 Hz, newest only, send buffer 8192 B, tcp (to "),
+])
 def test_a_receiver_and_a_follower_from_the_command_line(
-        router_port: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Both in this process (a session each), as two terminals would run them."""
+        router_port: int, tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        flags: list[str], announced: str) -> None:
+    """Both in this process (a session each), as two terminals would run them; a
+    newest-only follower's receiver is the FIFO one's (the same frames on the socket)."""
     bind, record = f"127.0.0.1:{free_tcp_port()}", tmp_path / "record.csv"
     leader = ["leader", "--swarm", "s1", "--system", "tcp", "--bind", bind, "--record",
               str(record), "--duration", "3", *_zenoh(router_port)]
     follower = ["follower", "--swarm", "s1", "--id", "f1", "--system", "tcp", "--to", bind,
-                "--rate", "50", "--duration", "1.5", *_zenoh(router_port)]
+                *flags, "--duration", "1.5", *_zenoh(router_port)]
     codes: list[int] = []
     receiver = threading.Thread(target=lambda: codes.append(cli_main.main(leader)))
     receiver.start()
@@ -127,30 +134,8 @@ def test_a_receiver_and_a_follower_from_the_command_line(
     receiver.join()
     assert codes == [0]
     out = capsys.readouterr().out
-    assert "tcp receiver on " + bind in out and "into a FIFO of 64, tcp (to " + bind in out
+    assert "tcp receiver on " + bind in out and announced + bind in out
     with record.open(newline="") as src:
         rows = list(csv.reader(src))
     assert tuple(rows[0]) == DeliveryRecord.FIELDS
-    assert len(rows) > 20 and {row[0] for row in rows[1:]} == {"f1"}
-
-
-def test_a_newest_only_tcp_follower_from_the_command_line(
-        router_port: int, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    """Its receiver is the tcp baseline's: the same frames on the same socket."""
-    bind, record = f"127.0.0.1:{free_tcp_port()}", tmp_path / "record.csv"
-    leader = ["leader", "--swarm", "s1", "--system", "tcp", "--bind", bind, "--record",
-              str(record), "--duration", "3", *_zenoh(router_port)]
-    follower = ["follower", "--swarm", "s1", "--id", "f1", "--system", "tcp", "--to", bind,
-                "--newest-only", "--send-buffer", "8192", "--duration", "1.5",
-                *_zenoh(router_port)]
-    codes: list[int] = []
-    receiver = threading.Thread(target=lambda: codes.append(cli_main.main(leader)))
-    receiver.start()
-    assert cli_main.main(follower) == 0
-    receiver.join()
-    assert codes == [0]
-    out = capsys.readouterr().out
-    assert "frames at 100 Hz, newest only, send buffer 8192 B, tcp (to " + bind in out
-    with record.open(newline="") as src:
-        rows = list(csv.reader(src))
     assert len(rows) > 20 and {row[0] for row in rows[1:]} == {"f1"}
