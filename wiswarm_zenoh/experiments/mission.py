@@ -28,6 +28,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from wiswarm_zenoh.baselines.senders import NEWEST_ZENOH
 from wiswarm_zenoh.experiments.cli_processes import Cli, start_cli, stop_cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
 from wiswarm_zenoh.experiments.mission_nodes import OperatorOptions, run_operator
@@ -75,7 +76,11 @@ LABELS = {
 }
 THROTTLED = ("fixed-first", "fixed-largest", "oracle")
 REALIZABLE = ("direct", "fixed-first", "fixed-largest", "newest")
-NEWEST_ONLY = ("--system", "push", "--newest-only")  # wiswarm follower's flags for (d)
+# (d): wiswarm follower's flags, and the robot's router's queues towards the ground as
+# small as the follower's own (one batch, a 16 KiB send buffer), as a careful engineer
+# sets them for newest-only: with the defaults, the router's TCP buffer alone holds
+# seconds of frames before a put blocks
+NEWEST_ONLY = ("--system", "push", "--newest-only")
 SUPERVISE_PERIOD = 0.25
 CONNECT_WAIT = 10.0  # seconds for a robot that just took off to reach the ground
 WEIGHT_REPEATS = (0.0, 2.0, 5.0)  # a weight put again this long after its phase starts:
@@ -199,7 +204,8 @@ class _Swarm:
         name = f"{robot_name(robot)}-{self._count}"
         ns = self.namespaces[robot - 1]
         options = RobotOptions(robot, self.ground.router_endpoint, self.rates[phase],
-                               self.retune(phase))
+                               self.retune(phase),
+                               NEWEST_ZENOH if self.system == "newest" else ())
         self.children.start(name, run_in, ns, run_robot, options, wait=False)
         follower = None
         if self.system in ("wiswarm", "newest"):

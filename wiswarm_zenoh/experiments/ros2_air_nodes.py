@@ -108,12 +108,13 @@ class RobotOptions:
     ground: str
     max_hz: float | None = None
     retune: tuple[tuple[float, float | None], ...] = ()
+    router_cfg: tuple[str, ...] = ()  # more of the router's config (``--cfg`` items)
     rate_hz: float = CAMERA_HZ
     image_bytes: int = IMAGE_BYTES
 
     def router(self) -> SessionSpec:
         return SessionSpec(mode="router", listen=(robot_router(self.index),),
-                           connect=(self.ground,), cfg=(NO_SHARED_MEMORY,),
+                           connect=(self.ground,), cfg=(NO_SHARED_MEMORY, *self.router_cfg),
                            multicast_scouting=False)
 
     def node(self) -> SessionSpec:
