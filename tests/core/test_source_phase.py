@@ -18,6 +18,7 @@ from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
 from wiswarm_zenoh.core.policies import Whittle
 from wiswarm_zenoh.core.sources import (
     HOLD_SHARE,
+    LAG_WIDTH,
     SHORTEST_HOLD,
     SourcePace,
     reducible_age,
@@ -183,6 +184,82 @@ def test_irregular_updates_and_updates_in_several_fragments_are_not_phased() -> 
         fragmented.reached(sent_at, sent_at + LATENCY, sent_at - 0.01, False)
     assert irregular.skips and not irregular.phased
     assert fragmented.skips and not fragmented.phased
+
+
+def _deliveries_after_stalls(seconds: float, counted_from: float) -> dict[str, int]:
+    """Phase (iv) of the standard mission in virtual time (issue 41): three 32 Hz
+    cameras whose every frame is offered, cam2's replies four times the others'
+    (its link at a quarter), cam1's weight 4 from 1 s; from 2 s to 8 s the hosts of
+    cam1 and cam2 are busy, their frames takeable twice a second only (a subscriber
+    that runs then). The frames each follower delivered from ``counted_from``."""
+    service = {"cam1": SERVICE, "cam2": 4 * SERVICE, "cam3": SERVICE}
+    phases = {"cam1": 3 * D / 8, "cam2": 5 * D / 8, "cam3": 7 * D / 8}
+    stalled = {"cam1", "cam2"}
+    leader = Leader()
+    followers = {f: Follower(f) for f in phases}
+    made = dict.fromkeys(phases, 0)
+    for f in phases:
+        leader.add_follower(f, 0.0)
+    now, weighted = 0.0, False
+    delivered = dict.fromkeys(phases, 0)
+    while now < seconds:
+        if not weighted and now >= 1.0:
+            leader.set_weight("cam1", 4.0)
+            weighted = True
+        request = leader.next_poll(now)
+        if request is None:  # nothing due, or a poll held: the leader's timer
+            wake = leader.get_timer()
+            assert wake is not None and wake > now
+            now = wake
+            leader.handle_timer(now)
+            drain(leader)
+            continue
+        f = request.follower
+        at = now + LATENCY
+        while True:  # the frames takeable by then, in order
+            at_made = phases[f] + made[f] * D
+            takeable = math.ceil(at_made * 2.0) / 2.0 \
+                if f in stalled and 2.0 <= at_made < 8.0 else at_made
+            if takeable > at:
+                break
+            followers[f].offer(FRAME, at_made)
+            made[f] += 1
+        raw = followers[f].on_poll(request.payload, at, at)
+        taken = decode_reply(raw).fragment is not None
+        now = at + (service[f] if taken else 0.0) + LATENCY
+        leader.receive_reply(f, raw, now)
+        drain(leader)
+        delivered[f] += taken and now >= counted_from
+    return delivered
+
+
+def test_stalled_hosts_leave_no_camera_unpolled_once_they_run_again() -> None:
+    """A stalled host's frames came late: the lag learnt from them must not stay.
+    It did (the time a frame takes to become takeable at least its age less an
+    interval, for good): cam1 and cam2 were then not due for a quarter of a second
+    after each frame taken, and took 3.5 frames a second each while cam3, weight 1,
+    took 21 (the testbed's mission, phase (iv): 3.8, 3.8 and 26)."""
+    delivered = _deliveries_after_stalls(24.0, counted_from=16.0)
+    assert delivered["cam1"] >= 0.8 * delivered["cam3"]  # weight 4 against 1
+    assert min(delivered.values()) >= 8 * 6  # 6 frames a second at least, each
+
+
+def test_a_frame_that_came_late_moves_the_lag_learnt_by_a_width_only() -> None:
+    """Updates taken as they are made; one stall: the poll found the frame made 0.25 s
+    before, the next not there yet. The lag (at most the least age taken) moves by
+    ``LAG_WIDTH`` of the interval, and a phased source is due again an interval after
+    its poll went out at most, whatever was learnt."""
+    pace = SourcePace()
+    for k in range(1, 40):
+        made = k * 3 * D
+        pace.taken(3 * k, made, made)
+        pace.reached(made - LATENCY, made + D / 64, made, True)
+    assert pace.phased and pace.lag <= D / 64
+    sent_at = 40 * 3 * D
+    pace.taken(3 * 40, sent_at - 0.25, sent_at - 0.25)
+    pace.reached(sent_at - LATENCY, sent_at, sent_at - 0.25, True)
+    assert pace.lag <= D / 64 + LAG_WIDTH * D
+    assert pace.ready <= sent_at - LATENCY < pace.ready + D
 
 
 def test_a_hold_is_worth_it_when_the_frame_it_waits_for_is_much_fresher() -> None:

@@ -33,11 +33,13 @@ made, on the leader's clock with no clock offset in it (the poll's own way is). 
 such phases the later is kept, leaking towards the earlier (that is a slower poll's: a
 poll aimed at it would come too soon). Add the time an update takes to become takeable
 (``lag``, learnt as a range: ``SourcePace._learn_lag``) and that is ``ready``, from
-which a poll sent finds the update. A poll sent at ``t`` finds the one made at the last
-``ready + k D``: ``z = (t - ready) mod D``, and nothing new before ``ready + D``, when it
-is due. A source whose interval is unknown, whose every update is taken, or whose phases
-do not follow the interval (irregular updates; polls whose way varies by more than a
-tenth of it) has ``z = 0``, as before.
+which a poll sent finds the update; the last such time by the send of the poll that
+took it (the update taken was ready by then), so that whatever was learnt, a source is
+due again an interval after its last poll went out at most. A poll sent at ``t`` finds
+the one made at the last ``ready + k D``: ``z = (t - ready) mod D``, and nothing new
+before ``ready + D``, when it is due. A source whose interval is unknown, whose every
+update is taken, or whose phases do not follow the interval (irregular updates; polls
+whose way varies by more than a tenth of it) has ``z = 0``, as before.
 
 The phase also says when: a poll sent just before its source's next update is ready
 brings one almost an interval old. The leader holds the poll it picked for a phased
@@ -80,7 +82,7 @@ class SourcePace:
         self.due = -math.inf  # leader clock: a poll before this finds nothing (if paced)
         self.skips = False  # it made more updates than were taken lately
         # how long after it is made an update can be taken: at least ``_latest``, at
-        # most ``_soonest``, ``lag`` taken in between (see ``reached``)
+        # most ``_soonest``, ``lag`` taken in between (see ``_learn_lag``)
         self._latest, self._soonest, self.lag = -math.inf, math.inf, 0.0
         # leader clock: a poll sent then reached the follower as the last one taken was made
         self._arrival = -math.inf
@@ -115,25 +117,34 @@ class SourcePace:
             # an earlier phase is a slower poll's: the later one kept, leaking towards it
             arrival = max(arrival, arrival - shift - LEAK * interval)
         self._arrival = arrival
-        self.ready = arrival + self.lag
+        ready = arrival + self.lag
+        if interval > 0.0:  # the update taken was ready by the poll's send, the next not
+            ready = sent_at - (sent_at - ready) % interval
+        self.ready = ready
         self.phased = whole and self.skips and self._error <= PHASE_TOLERANCE * interval
 
     def _learn_lag(self, age: float, interval: float) -> None:
         """How long after it is made an update can be taken, from an update taken
         ``age`` old by a poll: at most that (it was taken), more than ``age - interval``
-        (the next was not). Polls that reach the follower at one phase only (a schedule
-        locked to the cameras) leave that wide: ``lag`` is then the middle, so that
-        polls held for an update (``worth_waiting``) halve it, whether they take it or
-        find it not yet there; once within ``LAG_WIDTH``, the later end. Bounds that
-        cross (the lag grew, or varies) are opened by that width."""
+        (the next was not there yet). Polls that reach the follower at one phase only (a
+        schedule locked to the cameras) leave that wide: ``lag`` is then the middle, so
+        that polls held for an update (``worth_waiting``) halve it, whether they take it
+        or find it not yet there; once within ``LAG_WIDTH``, the later end. Bounds that
+        cross (an update came later than another was taken: the lag grew, or varies, or
+        a host stalled) are opened by that width above the upper bound, however far
+        they cross: a lag that grew is found a width per update, and an update that came
+        late moves ``lag`` by that width, not to its lateness for good (with ``ready``,
+        that would hold the source not due, ``reached``, for as long as its host's
+        longest stall)."""
         soonest = self._soonest = min(self._soonest, age)
         if interval > 0.0:
-            self._latest = max(self._latest, age - interval)
             width = LAG_WIDTH * interval
-            if self._latest >= soonest:
-                soonest = self._soonest = self._latest + width
-            if soonest - self._latest > width:
-                self.lag = 0.5 * (self._latest + soonest)
+            latest = self._latest = max(self._latest, age - interval)
+            if latest >= soonest:
+                latest = self._latest = soonest
+                soonest = self._soonest = soonest + width
+            if soonest - latest > width:
+                self.lag = 0.5 * (latest + soonest)
                 return
         self.lag = soonest
 
