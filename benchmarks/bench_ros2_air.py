@@ -6,9 +6,10 @@ the robots' topics directly, (b) the same throttled at the robot to its best rat
 found by the fine search from the medium's share of each robot (golden-section on the
 rate, to 5 % or to the next rate the throttle gives of the 30 Hz camera; the report
 lists the rates tried), (c) subscribing to ``wiswarm leader --ros2``'s republished
-topics (a ``wiswarm follower --ros2-topic`` on each robot). Over the 20 Mbit/s tbf
-channel and ns-3's WiFi medium (802.11g). About 12 minutes with the defaults (about 24
-runs).
+topics (a ``wiswarm follower --ros2-topic`` on each robot), (d) newest-only push
+(``wiswarm follower --system push --newest-only --ros2-topic`` on each robot). Over the
+20 Mbit/s tbf channel and ns-3's WiFi medium (802.11g). About 13 minutes with the
+defaults (about 28 runs).
 
     flock /tmp/bench.lock .venv/bin/python benchmarks/bench_ros2_air.py \\
         --out runs/ros2-air --figure docs/ros2_air.png

@@ -60,8 +60,9 @@ def test_no_throttle_keeps_every_frame_and_a_bad_rate_is_refused() -> None:
 
 def test_the_ground_subscribes_to_the_robots_topics_or_the_leaders() -> None:
     assert AirCase("direct", 2).topic(2) == "/drone2/camera/image_raw/compressed"
-    assert AirCase("wiswarm", 2).topic(2) == \
-        "/wiswarm/air/d2/drone2/camera/image_raw/compressed"
+    for republished in ("wiswarm", "newest"):
+        assert AirCase(republished, 2).topic(2) == \
+            "/wiswarm/air/d2/drone2/camera/image_raw/compressed"
     with pytest.raises(ValueError, match="max_hz"):
         AirCase("direct", 2, 5.0)
 
@@ -103,11 +104,13 @@ def test_the_report_judges_each_target_and_draws_the_figure(tmp_path: Path) -> N
     up, down = needed_bytes(counted)
     c = dataclasses.replace(counted, up_bytes=round(up), down_bytes=round(down))
     results = AirResults([c, _run(AirCase("direct", 8), 0.1375 * 20, 10),
-                          _run(AirCase("throttled", 8, 5.0), 0.1375 * 1.2, 50)],
+                          _run(AirCase("throttled", 8, 5.0), 0.1375 * 1.2, 50),
+                          _run(AirCase("newest", 8), 0.1375 * 2, 40)],
                          {("tbf", 8): 5.0}, {("tbf", 8): 6.4})
     text = report(results)
     assert "(b) throttled 5 Hz (best)" in text
     assert "| tbf | 8 | 6.4 | 5: 165 | 5 |" in text
+    assert "| tbf | 8 | (d) newest-only push | 275 |" in text
     assert "(c) 1.10 x the floor (target <= 1.2): met" in text
     assert "(a)/(c) 20.0 (target >= 20): met" in text
     assert "(b)/(c) 1.20 (target >= 1.5): MISSED" in text
@@ -131,8 +134,8 @@ def test_b_is_searched_finely_from_the_share_each_throttle_run_once(
     monkeypatch.setattr(ros2_air, "Channel", lambda spec: contextlib.nullcontext(None))
     config = AirConfig(ns=(8,), media=("tbf",))
     results = ros2_air.run_air(config, tmp_path)
-    assert [c.kind for c in measured[:2]] == ["direct", "wiswarm"]
-    rates = [c.max_hz for c in measured[2:]]
+    assert [c.kind for c in measured[:3]] == ["direct", "wiswarm", "newest"]
+    rates = [c.max_hz for c in measured[3:]]
     assert len(rates) == len(set(rates)) and all(r == throttled_hz(r) for r in rates)
     assert results.best[("tbf", 8)] == 5.0  # every 6th frame: the last below the cliff
     assert results.share[("tbf", 8)] == config.share_fps("tbf", 8)

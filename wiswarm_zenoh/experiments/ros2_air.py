@@ -10,7 +10,11 @@ Three ways to get the frames to the ground:
   (zenoh-bridge-ros2dds's ``pub_max_frequencies``), R the best found by the fine search
   (``rate_search``) from the medium's share of each robot;
 - ``wiswarm`` (c): a ``wiswarm follower --ros2-topic`` on each robot and ``wiswarm
-  leader --ros2`` at the ground; subscribe to the leader's republished topics.
+  leader --ros2`` at the ground; subscribe to the leader's republished topics;
+- ``newest`` (d): newest-only push, a ``wiswarm follower --system push --newest-only
+  --ros2-topic`` on each robot putting its newest frame where a leader would republish
+  it, the moment its last put completed; the robot's router's queues towards the
+  ground as small as the follower's (``NEWEST_ZENOH``).
 
 A case is an entry of ``KINDS``: what runs on each robot and at the ground besides the
 routers and cameras.
@@ -35,6 +39,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from wiswarm_zenoh.baselines.senders import NEWEST_ZENOH
 from wiswarm_zenoh.experiments.cli_processes import Cli, start_cli, stop_cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import client_of_local_router
 from wiswarm_zenoh.experiments.rate_search import fine_search
@@ -73,15 +78,19 @@ log = logging.getLogger(__name__)
 class Kind:
     """What a case runs besides the robots' routers and cameras: a ``wiswarm follower
     --ros2-topic`` on each robot with these flags added (None: none; the ground then
-    subscribes to its republished topic), and ``wiswarm leader --ros2`` at the ground."""
+    subscribes to its republished topic), ``wiswarm leader --ros2`` at the ground, and
+    more of each robot's router's config."""
 
     title: str  # the report's
     follower: tuple[str, ...] | None = None
     leader: bool = False
+    router: tuple[str, ...] = ()
 
 
 KINDS = {"direct": Kind("(a) direct"), "throttled": Kind("(b) throttled"),
-         "wiswarm": Kind("(c) WiSwarm", follower=(), leader=True)}
+         "wiswarm": Kind("(c) WiSwarm", follower=(), leader=True),
+         "newest": Kind("(d) newest-only push", follower=("--system", "push", "--newest-only"),
+                        router=NEWEST_ZENOH)}
 CASES = tuple(KINDS)
 SEARCHED = "throttled"  # the case whose rate is searched
 MEDIA = ("tbf", "wifi")
@@ -246,7 +255,8 @@ def _start(children: Children, medium: Medium, case: AirCase, leader_record: Pat
     children.start("ground-router", run_in, ground.leader_ns, run_router, ground.router())
     for index, ns in enumerate(robot_namespaces(medium, case.n), start=1):
         children.start(f"robot{index}", run_in, ns, run_robot,
-                       RobotOptions(index, ground.router_endpoint, case.max_hz), wait=False)
+                       RobotOptions(index, ground.router_endpoint, case.max_hz,
+                                    router_cfg=case.spec.router), wait=False)
     if case.spec.leader:
         children.start("leader", run_in, ground.leader_ns, run_leader, client_of_local_router(),
                        LeaderOptions(SWARM, record=str(leader_record),

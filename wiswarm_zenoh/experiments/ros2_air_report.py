@@ -1,4 +1,4 @@
-"""The ROS 2 air benchmark's report: the round-robin floor, the table of (a), (b), (c),
+"""The ROS 2 air benchmark's report: the round-robin floor, the table of the cases,
 the issue's targets, what (c)'s polls and replies need of the channel, and the figure.
 
 The floor is the stationary study's: S (N/2 + 1), S measured in (c) as the window over
@@ -164,11 +164,11 @@ def search_lines(results: AirResults) -> list[str]:
     return lines
 
 
-CASE_COLOURS = {"direct": "C3", "throttled": "C1", "wiswarm": "C0"}
+CASE_COLOURS = {"direct": "C3", "throttled": "C1", "wiswarm": "C0", "newest": "C2"}
 
 
 def plot(path: Path, results: AirResults) -> None:
-    """Per medium: mean AoI of (a), (b), (c) against N with (c)'s floor (top, log
+    """Per medium: mean AoI of every case against N with (c)'s floor (top, log
     scale), and the channel's bytes per second to the ground (bottom)."""
     import matplotlib
 
