@@ -22,7 +22,7 @@ from wiswarm_zenoh.baselines import (
     Receiver,
     TcpSender,
 )
-from wiswarm_zenoh.baselines.runners import _session_spec
+from wiswarm_zenoh.baselines.runners import follower_session_spec
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
 
@@ -83,13 +83,13 @@ def test_newest_only_push_needs_a_blocking_put_and_keeps_zenohs_queues_small() -
         PushSender(None, "s", "a", "drop", capacity=None)  # type: ignore[arg-type]
     spec = SessionSpec.loopback("peer", connect_ports=[7447])
     options = BaselineFollowerOptions("s", ("a",), "push", 100.0, newest_only=True)
-    config = _session_spec(spec, options, "a").config()
+    config = follower_session_spec(spec, options, "a").config()
     assert config.get_json("transport/link/tx/queue/size/data") == "1"
     assert config.get_json("transport/link/tcp/so_sndbuf") == NEWEST_ZENOH[1].split(":")[1]
     fifo = BaselineFollowerOptions("s", ("a",), "push", 100.0)
-    assert _session_spec(spec, fifo, "a") == spec
+    assert follower_session_spec(spec, fifo, "a") == spec
     given = SessionSpec(cfg=("transport/link/tx/queue/size/data:3",))
-    assert _session_spec(given, options, "a").config().get_json(
+    assert follower_session_spec(given, options, "a").config().get_json(
         "transport/link/tx/queue/size/data") == "3"  # the user's --cfg wins
 
 

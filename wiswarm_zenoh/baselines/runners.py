@@ -127,7 +127,7 @@ def _open_sender(session: zenoh.Session, options: BaselineFollowerOptions,
                      send_buffer=options.send_buffer if options.newest_only else None)
 
 
-def _session_spec(spec: SessionSpec, options: BaselineFollowerOptions,
+def follower_session_spec(spec: SessionSpec, options: BaselineFollowerOptions,
                   follower: str) -> SessionSpec:
     """A follower's session: newest-only push keeps Zenoh's queues beneath its put small
     (``NEWEST_ZENOH``; pushing a ROS 2 topic, that topic's puts block too). The spec's
@@ -152,7 +152,7 @@ def run_baseline_followers(spec: SessionSpec, options: BaselineFollowerOptions,
         feeds: list[tuple[str, QueuedSender | Ros2NewestPush]] = []
         for follower in options.follower_ids:
             session = stack.enter_context(open_node_session(
-                _session_spec(spec, options, follower), f"follower {follower}", stop,
+                follower_session_spec(spec, options, follower), f"follower {follower}", stop,
                 deadline))
             watches.add(session, f"follower {follower}")
             stack.enter_context(session.liveliness().declare_token(keys.member(follower)))
