@@ -35,6 +35,25 @@ def _media(results: MissionResults) -> list[str]:
     return list(dict.fromkeys(r.medium for r in results.runs))
 
 
+def summary(results: MissionResults) -> list[str]:
+    """The whole mission, a row per system, a column pair per medium: its weighted mean
+    AoI and that over WiSwarm's (the README's table)."""
+    media = _media(results)
+    systems = list(dict.fromkeys(r.system for r in results.runs))
+    lines = ["| system | " + " | ".join(f"{m}: weighted mean AoI (ms) | / WiSwarm"
+                                          for m in media) + " |",
+             "|---|" + "---|---|" * len(media)]
+    for system in systems:
+        cells = []
+        for medium in media:
+            run, ours = results.run(medium, system), results.run(medium, "wiswarm")
+            aoi = math.nan if run is None else whole(run).weighted_aoi
+            base = math.nan if ours is None else whole(ours).weighted_aoi
+            cells.append(f"{ms(aoi)} | {times(ratio(aoi, base))}")
+        lines.append(f"| {LABELS[system]} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def table(results: MissionResults, medium: str) -> list[str]:
     """One row per system and phase (and the whole mission): mean, p95 and weighted
     mean AoI, the throttle, the channel's bytes, and WiSwarm's weighted AoI against it."""
@@ -154,7 +173,7 @@ def targets(results: MissionResults) -> list[str]:
 
 def report(results: MissionResults) -> str:
     """The markdown report."""
-    out = []
+    out = ["## The whole mission", "", *summary(results), ""]
     for medium in _media(results):
         out += [f"## {medium}", "", *table(results, medium), "",
                 f"### {medium}: each robot's mean / p95 AoI (ms)", "",
