@@ -15,18 +15,16 @@ channels made by ``wiswarm testbed up`` are persistent and kept until ``down``.
 
 from __future__ import annotations
 
-import contextlib
 import itertools
 import json
 import logging
 import os
 import re
-import socket
-import sys
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from types import TracebackType
 
+from wiswarm_zenoh.testbed.flows import Flow, tcp_flows
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.ownership import (
     locked,
@@ -71,9 +69,7 @@ STATE_DIR = Path("/run/wiswarm-testbed")
 SUBNETS = range(1, 255)  # channel k: leader 10.201.k.1, follower 10.201.k.2 (/24)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,23}$")
 _counter = itertools.count()
-_ESTABLISHED = "01"  # a socket's state in /proc/net/tcp
 
-Flow = tuple[str, int, int]  # a TCP connection: remote address, local port, remote port
 
 
 @dataclass(frozen=True)
@@ -134,38 +130,6 @@ def _addresses(subnet: int) -> tuple[str, str]:
 
 def _links(ns: str) -> set[str]:
     return {link["ifname"] for link in run_json("ip", "-n", ns, "-j", "link", "show")}
-
-
-def tcp_flows(pid: int, local_addr: str) -> list[Flow]:
-    """The established IPv4 TCP connections process ``pid`` holds from ``local_addr``:
-    the sockets among its descriptors, looked up in its namespace's table. ValueError if
-    there is no such process."""
-    try:
-        fds = os.listdir(f"/proc/{pid}/fd")
-        table = Path(f"/proc/{pid}/net/tcp").read_text().splitlines()[1:]
-    except FileNotFoundError:
-        raise ValueError(f"no process {pid}") from None
-    inodes = set()
-    for fd in fds:
-        with contextlib.suppress(OSError):  # closed meanwhile
-            target = os.readlink(f"/proc/{pid}/fd/{fd}")
-            if target.startswith("socket:["):
-                inodes.add(target[len("socket:["):-1])
-    flows = []
-    for line in table:
-        _, local, remote, state, *rest = line.split()
-        if state == _ESTABLISHED and rest[5] in inodes and _address_of(local) == local_addr:
-            flows.append((_address_of(remote), _port_of(local), _port_of(remote)))
-    return flows
-
-
-def _address_of(entry: str) -> str:
-    """``0100007F:1F90`` (the address as the host's u32 in hex, a port) -> 127.0.0.1."""
-    return socket.inet_ntoa(int(entry.split(":")[0], 16).to_bytes(4, sys.byteorder))
-
-
-def _port_of(entry: str) -> int:
-    return int(entry.split(":")[1], 16)
 
 
 def _owned_by_live_process(record: _Record) -> bool:
