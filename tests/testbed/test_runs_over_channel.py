@@ -51,7 +51,7 @@ def _measure_across(channel: Channel, spec: RunSpec, workdir: Path) -> RunOutcom
 def test_wiswarm_frames_cross_the_shaped_link_and_stay_fresh(tmp_path: Path) -> None:
     with Channel() as channel:
         outcome = _measure_across(channel, RunSpec("wiswarm", 2, duration=3.0, warmup=1.5),
-                                  tmp_path)
+                                  tmp_path / "not" / "made")  # measure makes it
     # two followers share a 21 ms frame time: the round-robin floor is about 42 ms
     assert outcome.result.mean("mean_aoi_s") < 0.1
     assert outcome.complete and not outcome.events

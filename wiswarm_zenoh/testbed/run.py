@@ -248,8 +248,10 @@ def measure(channel: Medium, spec: RunSpec, workdir: Path,
             on_tick: Callable[[float], None] | None = None) -> RunOutcome:
     """Run ``spec`` over ``channel`` (a tbf channel or the WiFi medium); ``stop`` ends
     the window early (the run is then reported over what it measured); ``on_tick(fraction
-    done)`` as it goes. On the WiFi medium, MediumFailed if real time was not held."""
+    done)`` as it goes. On the WiFi medium, MediumFailed if real time was not held.
+    ``workdir`` is made if missing: the records are written there by the children."""
     stop = stop or threading.Event()
+    workdir.mkdir(parents=True, exist_ok=True)
     groups = follower_groups(channel, spec.n)
     place = Placement(channel.leader_ns, groups[0][1], channel.leader_addr)
     record = workdir / f"{spec.label}-n{spec.n}-b{spec.batch}.csv"
