@@ -69,9 +69,10 @@ VALID = {"name": "uav1", "int": "3", "dir": "{tmp}/out", "name list": "f1,f2", "
          "rate": "20mbit", "file": "{tmp}/out.mcap"}
 # What would start something: reaching one of these means a bad value got through.
 STARTERS = (
-    "wiswarm_zenoh.cli.nodes.run_router", "wiswarm_zenoh.cli.nodes.run_receiver",
-    "wiswarm_zenoh.cli.nodes.run_leader", "wiswarm_zenoh.cli.nodes.run_follower",
-    "wiswarm_zenoh.cli.nodes.run_baseline_followers", "wiswarm_zenoh.cli.nodes.run_demo",
+    "wiswarm_zenoh.cli.nodes.run_router", "wiswarm_zenoh.cli.nodes.run_demo",
+    "wiswarm_zenoh.cli.leader_command.run_receiver", "wiswarm_zenoh.cli.leader_command.run_leader",
+    "wiswarm_zenoh.cli.follower_command.run_follower",
+    "wiswarm_zenoh.cli.follower_command.run_baseline_followers",
     "wiswarm_zenoh.cli.sim.run_slotted", "wiswarm_zenoh.cli.sim.run_wifi",
     "wiswarm_zenoh.cli.sim.run_link", "wiswarm_zenoh.cli.sim.run_sweep",
     "wiswarm_zenoh.options.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",

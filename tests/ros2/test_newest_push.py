@@ -15,7 +15,8 @@ import pytest
 import zenoh
 
 from tests.transport.helpers import WAIT, Samples, Sessions, wait_until_known
-from wiswarm_zenoh.baselines import BaselineFollowerOptions
+from wiswarm_zenoh.baselines import BaselineFollowerOptions, run_baseline_followers
+from wiswarm_zenoh.cli import follower_command as follower_command_module
 from wiswarm_zenoh.cli import main as cli_main
 from wiswarm_zenoh.cli import nodes
 from wiswarm_zenoh.experiments.mission import NEWEST_ONLY
@@ -75,7 +76,7 @@ def test_the_newest_sample_goes_where_a_wiswarm_leader_republishes_it(
     options = BaselineFollowerOptions(SWARM, ("d1",), "push", 100.0, newest_only=True,
                                       source=Ros2TopicSource(TOPIC, DOMAIN))
     with Children(multiprocessing.get_context("spawn")) as children:
-        children.start("follower", nodes.run_baseline_followers, spec, options)
+        children.start("follower", run_baseline_followers, spec, options)
         wait_until_known(camera_session, data_key(DOMAIN, TOPIC, kind))
         # The follower's publisher is made on its first sample, and a put made before
         # its session knows of the ground's subscriber reaches nobody: samples go one
@@ -111,7 +112,7 @@ def test_the_missions_newest_command_line_is_this_follower(
     """``follower_command`` + ``NEWEST_ONLY``, as the mission starts robot 1's follower:
     its options, and that the ground's topic for it is the republished one."""
     got: list[tuple[SessionSpec, BaselineFollowerOptions]] = []
-    monkeypatch.setattr(nodes, "run_baseline_followers",
+    monkeypatch.setattr(follower_command_module, "run_baseline_followers",
                         lambda spec, options, stop, ready: got.append((spec, options)))
     monkeypatch.setattr(cli_main, "every_command", lambda: (nodes.register,))
     assert cli_main.main([*follower_command(1), *NEWEST_ONLY]) == 0
