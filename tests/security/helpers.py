@@ -17,6 +17,20 @@ from wiswarm_zenoh.transport import SessionSpec, SwarmKeys
 WAIT = 15.0  # seconds: generous, since the machine may be busy; met in well under 1 s
 SWARM = "s"
 KEYS = SwarmKeys(SWARM)
+Permission = tuple[str, str, str]  # (message, flow, key expression)
+
+
+def follower_permissions(keys: SwarmKeys, follower: str) -> set[Permission]:
+    """What a follower's certificate may do: serve and hold tokens for itself and for
+    its streams (``<follower>~<stream>``), and hear the control."""
+    streams = f"{keys.prefix}/{follower}~$*"
+    return {
+        *((m, f, k) for k in (keys.update(follower), f"{streams}/update") for m, f in (
+            ("declare_queryable", "ingress"), ("reply", "ingress"), ("query", "egress"))),
+        *(("liveliness_token", "ingress", k) for k in (
+            keys.member(follower), f"{keys.source(follower)}/**",
+            f"{keys.prefix}/members/{follower}~$*", f"{streams}/source/**")),
+        ("declare_subscriber", "ingress", keys.control), ("put", "egress", keys.control)}
 
 
 def make_swarm(directory: Path, port: int, followers: tuple[str, ...] = ("f1", "f2"),

@@ -17,7 +17,7 @@ from wiswarm_zenoh.security.configs import render
 from wiswarm_zenoh.security.deploy import add_follower, load
 from wiswarm_zenoh.transport import SessionSpec
 
-from .helpers import KEYS, Sessions, answer, replies, until
+from .helpers import KEYS, Sessions, answer, follower_permissions, replies, until
 
 
 def _json5(path: Path) -> dict[str, Any]:
@@ -65,12 +65,7 @@ def test_init_writes_a_ca_a_certificate_per_node_and_client_configs(swarm: Path)
 def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None:
     router = _json5(swarm / "router.json5")
     f1 = _allowed(_rules_of(router, "f1"))
-    assert f1 == {
-        ("declare_queryable", "ingress", KEYS.update("f1")),
-        ("reply", "ingress", KEYS.update("f1")), ("query", "egress", KEYS.update("f1")),
-        ("liveliness_token", "ingress", KEYS.member("f1")),
-        ("liveliness_token", "ingress", f"{KEYS.source('f1')}/**"),
-        ("declare_subscriber", "ingress", KEYS.control), ("put", "egress", KEYS.control)}
+    assert f1 == follower_permissions(KEYS, "f1")
     observer = _allowed(_rules_of(router, "o1"))  # read-only: what the dashboard and
     assert {m for m, f, _ in observer if f == "ingress"} == {  # wiswarm record read
         "declare_subscriber", "declare_liveliness_subscriber", "liveliness_query"}

@@ -33,14 +33,16 @@ from wiswarm_zenoh.options import (
     add_source_arguments,
     host_port,
     node_name,
+    one_source,
     positive_float,
     positive_int,
-    source_of,
+    streams_of,
 )
 from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_RATE
 from wiswarm_zenoh.programs.runners import FollowerOptions, run_follower
 from wiswarm_zenoh.programs.ticker import MAX_RATE_HZ
 from wiswarm_zenoh.ros2.newest_push import republished_topic
+from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.security.checks import check_identity
 
 BASELINE_RATE = 50.0  # frames/s: the paper's fixed-rate baselines
@@ -72,19 +74,21 @@ def _baseline_follower(args: argparse.Namespace) -> int:
         raise UsageError(f"--system {args.system} needs --to HOST:PORT (where "
                          f"wiswarm leader --system {args.system} listens)")
     _check_newest_only(args)
-    source = source_of(args)
+    source = one_source(args, f"--system {args.system} pushes one stream")
+    if source is not None and not isinstance(source, Ros2TopicSource):
+        raise UsageError("--source is for --system wiswarm")  # flags checked: never here
     newest = bool(args.newest_only)
     options = checked(BaselineFollowerOptions, args.swarm, (args.id,), args.system,
-                       args.rate or (FRAME_RATE if newest else BASELINE_RATE),
-                       args.congestion or "block", args.frame_bytes, args.to,
-                       args.capacity or DEFAULT_CAPACITY, args.duration, newest,
-                       args.send_buffer or NEWEST_SEND_BUFFER, source)
+                      args.rate or (FRAME_RATE if newest else BASELINE_RATE),
+                      args.congestion or "block", args.frame_bytes, args.to,
+                      args.capacity or DEFAULT_CAPACITY, args.duration, newest,
+                      args.send_buffer or NEWEST_SEND_BUFFER, source)
     spec = session_spec(args, "peer")
     how = f"{options.congestion} put" if args.system == "push" else f"to {args.to}"
     what = f"{args.frame_bytes}-byte frames at {options.rate:g} Hz"
     if source is not None:
-        what = f"the samples of {args.ros2_topic}"
-        how += f" on {republished_topic(args.swarm, args.id, args.ros2_topic)}"
+        what = f"the samples of {source.topic}"
+        how += f" on {republished_topic(args.swarm, args.id, source.topic)}"
     queue = f" into a FIFO of {options.capacity}"
     if newest:
         queue = ", newest only" + (f", send buffer {options.send_buffer} B"
@@ -102,16 +106,17 @@ def _follower(args: argparse.Namespace) -> int:
         return _baseline_follower(args)
     rate = args.rate or FRAME_RATE
     config = checked(FollowerConfig, **given(args, "queue", "capacity", "fragment_size"),
-                      rate_hz=rate if args.queue == "fifo" else None)
+                     rate_hz=rate if args.queue == "fifo" else None)
     check_frame_bytes(args.frame_bytes, config)
-    source = source_of(args)
+    streams = streams_of(args)
     if args.ros2_waypoints is not None:
         require("ros2")  # the Path is made and serialized here
     options = FollowerOptions(args.swarm, args.id, config, args.frame_bytes, rate,
-                              args.duration, source, args.ros2_waypoints, args.ros_domain or 0)
+                              args.duration, streams, args.ros2_waypoints, args.ros_domain or 0)
     spec = session_spec(args, "peer")
-    what = (f"{args.frame_bytes}-byte frames at {rate:g} Hz" if source is None else
-            f"the samples of {args.source or args.ros2_topic}")
+    what = (f"{args.frame_bytes}-byte frames at {rate:g} Hz" if not streams else
+            "; ".join(f"the samples of {s.what}" + ("" if s.member == args.id else
+                                                     f" as {s.member}") for s in streams))
     run_follower(spec, options, threading.Event(), Announce(
         f"wiswarm follower {args.id}: {what}, {config.queue} queue (Ctrl-C to stop)"))
     return 0
@@ -129,7 +134,7 @@ def register_follower(subparsers: Any) -> None:
         "datagram a frame; tcp: one connection). push and tcp --newest-only keep only the "
         "newest frame instead and send it the moment the previous send completed.")
     add_swarm(follower)
-    follower.add_argument("--id", required=True, type=node_name("follower id", follower=True),
+    follower.add_argument("--id", required=True, type=node_name("follower id", robot=True),
                           help="this follower's id (a key chunk)")
     follower.add_argument("--system", choices=SYSTEMS, default="wiswarm",
                           help="wiswarm: answer polls (default); push: put every frame on "

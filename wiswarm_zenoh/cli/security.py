@@ -42,7 +42,7 @@ MAX_PORT = 65535
 MAX_DAYS = 36500  # a certificate's end must be a date Python and X.509 can write
 # The CA's common name is "wiswarm <swarm> CA".
 MAX_SWARM = MAX_COMMON_NAME - len("wiswarm  CA")
-_FOLLOWER = node_name("follower id", follower=True, most=MAX_COMMON_NAME)
+_FOLLOWER = node_name("follower id", robot=True, most=MAX_COMMON_NAME)
 _HOST = host_name()
 T = TypeVar("T")
 

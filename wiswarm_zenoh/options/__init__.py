@@ -30,7 +30,7 @@ from wiswarm_zenoh.options.arguments import (
 )
 from wiswarm_zenoh.options.progress import ProgressBar, show_written
 from wiswarm_zenoh.options.ros2 import UPDATE_ADAPTER, add_ros2_arguments, ros2_options
-from wiswarm_zenoh.options.sources import add_source_arguments, source_of
+from wiswarm_zenoh.options.sources import add_source_arguments, one_source, streams_of
 from wiswarm_zenoh.options.testbed import (
     RUN_ID,
     add_channel_arguments,
@@ -80,13 +80,14 @@ __all__ = [
     "listed",
     "node_name",
     "one_of",
+    "one_source",
     "parse_size",
     "positive_float",
     "positive_int",
     "require_testbed",
     "ros2_options",
     "show_written",
-    "source_of",
+    "streams_of",
     "wifi_of",
     "wifi_spec",
     "writable_dir",

@@ -20,7 +20,7 @@ from typing import Generic, TypeVar
 from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.core.in_flight import MOST as MOST_IN_FLIGHT
 from wiswarm_zenoh.core.messages import MAX_ID_BYTES
-from wiswarm_zenoh.transport.keys import check_follower, check_name
+from wiswarm_zenoh.transport.keys import check_follower, check_name, check_robot
 from wiswarm_zenoh.transport.zenoh_config import (
     PROTOCOLS,
     check_endpoint,
@@ -140,11 +140,15 @@ def float_range(item: ArgType[float]) -> ArgType[tuple[float, float]]:
     return ArgType("range", parse)
 
 
-def node_name(what: str, follower: bool = False, most: int = MAX_ID_BYTES) -> ArgType[str]:
+def node_name(what: str, follower: bool = False, most: int = MAX_ID_BYTES,
+              robot: bool = False) -> ArgType[str]:
     """A name that goes in a key and on the wire: one key chunk of at most ``most``
-    UTF-8 bytes (a follower id: not one of the swarm's reserved words either)."""
+    UTF-8 bytes (a follower id: not one of the swarm's reserved words either; a robot's
+    id: nor with the ``~`` that names its streams)."""
     def parse(text: str) -> str:
-        if follower:
+        if robot:
+            check_robot(text)
+        elif follower:
             check_follower(text)
         else:
             check_name(text, what)

@@ -10,6 +10,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TextIO
 
+from wiswarm_zenoh.core.members import robot_of
+
 Record = Mapping[str, object]
 
 STATS_COLUMNS = ("time_s", "follower", "aoi_s", "mean_aoi_s", "p95_aoi_s", "p_hat", "weight",
@@ -24,11 +26,16 @@ def _num(record: Record, key: str) -> float:
 
 def format_table(records: Sequence[Record], polls_per_s: Mapping[str, float],
                  header: str = "") -> list[str]:
-    """One line per follower: AoI now, mean, p95 (ms), p_hat, weight, polls/s."""
+    """One line per follower: AoI now, mean, p95 (ms), p_hat, weight, polls/s; a robot's
+    streams (``uav1~camera``, ``uav1~odometry``) together, under their robot."""
     lines = [header] if header else []
     lines.append(f"{'follower':>10} {'AoI ms':>9} {'mean ms':>9} {'p95 ms':>9} "
                  f"{'p_hat':>6} {'weight':>7} {'polls/s':>8} {'errors':>7}")
-    for record in sorted(records, key=lambda r: str(r.get("follower"))):
+    def by_robot(record: Record) -> tuple[str, str]:
+        name = str(record.get("follower"))
+        return robot_of(name), name
+
+    for record in sorted(records, key=by_robot):
         name = str(record.get("follower"))
         lines.append(
             f"{name:>10} {_num(record, 'aoi_s') * 1e3:9.1f} {_num(record, 'mean_aoi_s') * 1e3:9.2f}"

@@ -41,11 +41,10 @@ from wiswarm_zenoh.programs.router_watch import (
     say_unreached,
 )
 from wiswarm_zenoh.programs.zenoh_log import LOG_FORMAT, init_zenoh_log
-from wiswarm_zenoh.ros2.topic_source import Ros2TopicSource
 from wiswarm_zenoh.ros2.waypoints import WaypointsPublisher
 from wiswarm_zenoh.transport.bridge import BridgeOptions
 from wiswarm_zenoh.transport.edge import Upstream
-from wiswarm_zenoh.transport.source_feed import ZenohSource
+from wiswarm_zenoh.transport.streams import Stream
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 
 log = logging.getLogger(__name__)
@@ -210,9 +209,9 @@ def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = 
 
 @dataclass(frozen=True)
 class FollowerOptions:
-    """One follower: synthetic frames (``frame_bytes`` at ``frame_rate``), or the
-    samples of ``source``; with ``waypoints_topic``, its waypoints as a ROS 2 Path there
-    (on ``ros_domain``)."""
+    """One robot's follower: synthetic frames (``frame_bytes`` at ``frame_rate``), or
+    the samples of its ``streams``, each a member of its own; with ``waypoints_topic``,
+    its waypoints (those of its first member) as a ROS 2 Path there (on ``ros_domain``)."""
 
     swarm: str
     follower_id: str
@@ -220,7 +219,7 @@ class FollowerOptions:
     frame_bytes: int = FRAME_BYTES
     frame_rate: float = FRAME_RATE
     duration: float | None = None
-    source: ZenohSource | Ros2TopicSource | None = None
+    streams: tuple[Stream, ...] = ()
     waypoints_topic: str | None = None
     ros_domain: int = 0
     config_file: str | None = None  # its own Zenoh config (a certificate), over the spec's
@@ -242,7 +241,7 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
     watches = RouterWatches(spec.routers())
     deadline = deadline_of(options[0].duration if options else None)
     with contextlib.ExitStack() as stack:
-        feeds = []
+        feeds: list[tuple[str, Follower, SyntheticFrames | None]] = []
         for option in options:
             own = spec if option.config_file is None else replace(
                 spec, config_file=option.config_file)
@@ -253,23 +252,29 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
                 session, option.follower_id, option.waypoints_topic, option.ros_domain)
             if waypoints is not None:
                 stack.callback(waypoints.close)
-            node = stack.enter_context(
-                Follower(session, option.swarm, option.follower_id, config=option.config,
-                         source=option.source, on_control=waypoints))
-            feeds.append((option, node, None if option.source is not None else
-                          SyntheticFrames(node.offer, option.frame_bytes, option.frame_rate)))
-        for _, _, frames in feeds:
-            if frames is not None:
-                frames.start()
-                stack.callback(frames.stop)
+            if not option.streams:
+                node = stack.enter_context(Follower(
+                    session, option.swarm, option.follower_id, config=option.config,
+                    on_control=waypoints))
+                feeds.append((option.follower_id, node, SyntheticFrames(
+                    node.offer, option.frame_bytes, option.frame_rate)))
+            for k, stream in enumerate(option.streams):  # one session: the robot's link
+                node = stack.enter_context(Follower(
+                    session, option.swarm, stream.member, config=option.config,
+                    source=stream.source, on_control=waypoints if k == 0 else None))
+                feeds.append((stream.member, node, None))
+        for _, _, synthetic in feeds:
+            if synthetic is not None:
+                synthetic.start()
+                stack.callback(synthetic.stop)
         if ready is not None:
             ready.set()
 
         wait_until_stopped(stop, time_left(deadline), watches.check)
         reached = watches.finish()
-        for option, node, frames in feeds:
-            log.info("follower %s: %d %s offered, %d polls answered", option.follower_id,
-                     node.offered, "frames" if frames is not None else "samples", node.polls)
+        for member, node, synthetic in feeds:
+            log.info("follower %s: %d %s offered, %d polls answered", member, node.offered,
+                     "frames" if synthetic is not None else "samples", node.polls)
     if not reached:
         raise NoRouterReached
 

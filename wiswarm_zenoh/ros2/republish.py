@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import zenoh
 
+from wiswarm_zenoh.core.members import robot_of
 from wiswarm_zenoh.ros2.graph import check_topic, ros_token
 from wiswarm_zenoh.ros2.messages import RosType
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
@@ -43,8 +44,9 @@ class Republisher:
                                  "ROS 2 source token")
 
     def topic(self, follower: str, source_topic: str) -> str:
-        """Where a follower's source topic is republished (a checked ROS name)."""
-        return check_topic(f"{self._namespace}/{ros_token(follower)}{source_topic}")
+        """Where a follower's source topic is republished (a checked ROS name): under its
+        robot, so that a robot's streams (``uav1~camera``, ...) keep their own names."""
+        return check_topic(f"{self._namespace}/{ros_token(robot_of(follower))}{source_topic}")
 
     def _on_token(self, key: str, alive: bool) -> None:
         parsed = parse_source_token(self._keys, key)

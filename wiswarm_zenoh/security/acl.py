@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from wiswarm_zenoh.core.members import STREAM_SEPARATOR
 from wiswarm_zenoh.ros2 import default_namespace
 from wiswarm_zenoh.ros2.bridge import NODE_NAME
 from wiswarm_zenoh.ros2.graph import ADMIN_SPACE, check_domain, check_namespace, mangle
@@ -144,12 +145,15 @@ def _follower_groups(roster: Roster) -> list[Group]:
         rule("followers-get-control", ["put"], EGRESS, [keys.control])))]
     for follower in roster.followers:
         own = f"follower-{follower}"
+        # A robot's streams are members <follower>~<stream> (``transport.streams``).
+        streams = f"{follower}{STREAM_SEPARATOR}$*"
+        updates = [keys.update(follower), f"{keys.prefix}/{streams}/update"]
         groups.append(Group(own, (cn(follower),), (
-            rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS,
-                 [keys.update(follower)]),
-            rule(f"{own}-is-polled", ["query"], EGRESS, [keys.update(follower)]),
+            rule(f"{own}-serves", ["declare_queryable", "reply"], INGRESS, updates),
+            rule(f"{own}-is-polled", ["query"], EGRESS, updates),
             rule(f"{own}-is-member", ["liveliness_token"], INGRESS,
-                 [keys.member(follower), f"{keys.source(follower)}/**"]),
+                 [keys.member(follower), f"{keys.source(follower)}/**",
+                  f"{keys.prefix}/members/{streams}", f"{keys.prefix}/{streams}/source/**"]),
         )))
     return groups
 

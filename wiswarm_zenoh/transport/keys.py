@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from wiswarm_zenoh.core.members import STREAM_SEPARATOR
+
 ROOT = "wiswarm"
 RESERVED = frozenset({"leader", "leaders", "control", "members"})
 _FORBIDDEN = frozenset("/*$?#")
@@ -28,6 +30,23 @@ def check_follower(name: str) -> str:
         raise ValueError(f"follower id {name!r} is reserved: "
                          f"{', '.join(sorted(RESERVED))} are not follower names")
     return name
+
+
+def check_robot(name: str) -> str:
+    """A robot's id (``wiswarm follower --id``): a follower id without ``~``, which joins
+    a robot and its stream in a member's name."""
+    check_follower(name)
+    if STREAM_SEPARATOR in name:
+        raise ValueError(f"follower id {name!r} must not contain {STREAM_SEPARATOR}: it "
+                         f"joins a robot and its streams in a member's name "
+                         f"(<id>{STREAM_SEPARATOR}<stream>)")
+    return name
+
+
+def stream_member(robot: str, stream: str) -> str:
+    """The member that serves ``robot``'s stream ``stream``: ``<robot>~<stream>``."""
+    check_name(stream, "stream name")
+    return check_follower(f"{check_robot(robot)}{STREAM_SEPARATOR}{stream}")
 
 
 @dataclass(frozen=True)

@@ -25,8 +25,17 @@ function count(value) {
   return value === null || value === undefined ? "-" : String(value);
 }
 
+// A robot serving several streams has a member per stream, <robot>~<stream>: its rows
+// go together, under the robot's name.
+const STREAM = "~";
+
+function robotOf(follower) {
+  return follower.split(STREAM, 1)[0];
+}
+
 function byName(a, b) {
-  return a.localeCompare(b, undefined, {numeric: true});
+  const robots = robotOf(a).localeCompare(robotOf(b), undefined, {numeric: true});
+  return robots !== 0 ? robots : a.localeCompare(b, undefined, {numeric: true});
 }
 
 export class FollowerTable {
@@ -50,10 +59,20 @@ export class FollowerTable {
     if (entry !== undefined) return entry;
     const row = document.createElement("tr");
     row.dataset.follower = follower;
+    row.dataset.robot = robotOf(follower);
     const name = document.createElement("td");
     const swatch = document.createElement("span");
     swatch.className = "swatch";
-    name.append(swatch, follower);
+    const stream = follower.indexOf(STREAM);
+    if (stream < 0) {
+      name.append(swatch, follower);
+    } else {  // the robot, then its stream a shade lighter
+      const label = document.createElement("span");
+      label.className = "stream";
+      label.textContent = follower.slice(stream);
+      name.append(swatch, follower.slice(0, stream), label);
+      name.title = `stream ${follower.slice(stream + 1)} of robot ${follower.slice(0, stream)}`;
+    }
     row.append(name);
     const cells = COLUMNS.map(() => row.appendChild(document.createElement("td")));
     entry = {row, cells, swatch};
