@@ -50,6 +50,7 @@ from pathlib import Path
 from typing import Any
 
 import zenoh
+from machine_cost import MachineCost
 
 from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
@@ -125,8 +126,9 @@ def wait_for_routes(session: zenoh.Session, followers: list[str], timeout: float
 
 
 def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
-               timeout: float) -> float:
-    """(a): polls/s of a round-robin get loop with nothing but Zenoh in it."""
+               timeout: float, cost: MachineCost | None = None) -> float:
+    """(a): polls/s of a round-robin get loop with nothing but Zenoh in it (and what
+    its window cost the machine, into ``cost``)."""
     queriers = [
         session.declare_querier(
             f"wiswarm/{BARE}/{f}/update", target=zenoh.QueryTarget.ALL,
@@ -139,6 +141,8 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
     start = end = math.inf
     while time.perf_counter() < end:
         if polls == 0:
+            if cost is not None:
+                cost.begin()
             start = time.perf_counter()
             end = start + seconds
         for reply in queriers[polls % len(queriers)].get(payload=poll):
@@ -148,6 +152,8 @@ def bare_round(session: zenoh.Session, followers: list[str], seconds: float,
                 break
         polls += 1
     elapsed = time.perf_counter() - start
+    if cost is not None:
+        cost.end(polls)
     for querier in queriers:
         querier.undeclare()
     if size == 0:
@@ -172,11 +178,12 @@ def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds:
 
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
-                 **node: Any
+                 cost: MachineCost | None = None, **node: Any
                  ) -> tuple[float, list[dict[str, Any]], float]:
     """(b): polls/s of the LeaderNode (made with ``node``'s further arguments), its
     per-follower stats at the end, and the share of its polls sent on a pick made while
-    the poll before was out (``fast_polls``)."""
+    the poll before was out (``fast_polls``); what its window cost the machine, into
+    ``cost``."""
     joined: list[str] = []
     everyone = threading.Event()
 
@@ -191,9 +198,13 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
             raise RuntimeError(f"only {len(joined)} of {n} followers discovered")
         while leader.polls < WARM_UP_ROUNDS * n:
             time.sleep(0.001)
+        if cost is not None:
+            cost.begin()
         start, polls0, fast0 = time.perf_counter(), leader.polls, leader.fast_polls
         time.sleep(seconds)
         polls, fast = leader.polls - polls0, leader.fast_polls - fast0
+        if cost is not None:
+            cost.end(polls)
         rate = polls / (time.perf_counter() - start)
         time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
         stats = [record.as_dict() for record in leader.latest]
@@ -205,7 +216,8 @@ Job = tuple[Any, tuple[Any, ...]]
 
 @contextlib.contextmanager
 def children(jobs: list[Job]) -> Any:
-    """Each job in a ``spawn`` child, up before the next starts; all stopped at the end."""
+    """Each job in a ``spawn`` child, up before the next starts; all stopped at the end.
+    Yields their process ids, in order."""
     ctx = multiprocessing.get_context("spawn")
     procs = []
     try:
@@ -216,7 +228,7 @@ def children(jobs: list[Job]) -> Any:
             procs.append(proc)
             if not ready.wait(READY_TIMEOUT):
                 raise RuntimeError("a child process did not come up")
-        yield
+        yield [proc.pid for proc in procs]
     finally:
         for proc in procs:
             proc.terminate()
@@ -236,9 +248,11 @@ def measure(n: int, args: argparse.Namespace) -> None:
         *((followers_process, ([node_spec] * len(names), names, args.frame_bytes, args.camera,
                                True)) for names in hosts),
     ]
-    with children(jobs):
+    with children(jobs) as pids:
         config = LeaderConfig(policy=args.policy, timeout=args.timeout,
-                          control_period=args.control_period)
+                              control_period=args.control_period)
+        roles = {"router": pids[0], **{f"followers {i}": pid for i, pid in enumerate(pids[1:3])}}
+        costs = {kind: MachineCost(roles) for kind in ("bare", "leader")}
         with node_spec.open() as session:
             wait_for_routes(session, followers, args.timeout)
             bare_round(session, followers, 0.5, args.timeout)  # warm up
@@ -247,15 +261,19 @@ def measure(n: int, args: argparse.Namespace) -> None:
             for i in range(args.rounds):  # in turn, the order reversed every other time
                 for kind in kinds if i % 2 == 0 else kinds[::-1]:  # so that drift cancels
                     if kind == "bare":
-                        bare.append(bare_round(session, followers, args.seconds, args.timeout))
+                        bare.append(bare_round(session, followers, args.seconds, args.timeout,
+                                               costs["bare"]))
                     elif kind == "leader":
-                        rate, stats, fast = leader_round(session, n, args.seconds, config)
+                        rate, stats, fast = leader_round(session, n, args.seconds, config,
+                                                         costs["leader"])
                         leader.append(rate)
                         fast_shares.append(fast)
                     else:
                         watched.append(watched_round(session, node_spec, n, args.seconds,
                                                      config))
         report(n, args, bare, leader, stats, statistics.median(fast_shares))
+        print("\n".join([*costs["bare"].lines("(a) bare get loop"),
+                         *costs["leader"].lines("(b) leader loop")]))
         if watched:
             report_watched(leader, watched)
 

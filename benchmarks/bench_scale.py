@@ -54,6 +54,7 @@ from functools import partial
 
 import zenoh
 from bench_poll import BARE, NO_SHM, Job, children, serve_bare, wait_for_routes
+from machine_cost import MachineCost
 
 from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.aoi import AoITracker
@@ -215,11 +216,11 @@ def window_figures(watch: Watch, followers: list[str], start: float,
 
 
 def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace,
-               seconds: float, profilers: list[cProfile.Profile] | None,
+               seconds: float, profilers: list[cProfile.Profile] | None, cost: MachineCost,
                ) -> tuple[float, float, int, int, Window]:
     """Discovery, then the measuring window; returns the time to all joins and to every
     follower's first delivery, the RSS growth after discovery and at the end, and the
-    window."""
+    window (what it cost the machine into ``cost``)."""
     n = len(followers)
     watch = Watch(followers)
     rss0 = rss_bytes()
@@ -248,9 +249,11 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             cpu0, thread0 = process_cpu(), thread_cpu(poll_threads)
             machine0 = machine_busy()
             pauses = Pauses()
+            cost.begin()
             time.sleep(seconds)
             pauses.close()
             t1, polls1, fast1 = time.time(), node.polls, node.fast_polls
+            cost.end(polls1 - polls0)
             cpu1, thread1 = process_cpu(), thread_cpu(poll_threads)
             machine1 = machine_busy()
             rss_end = rss_bytes() - rss0
@@ -305,9 +308,10 @@ def timeouts(node: LeaderNode, session: zenoh.Session) -> int:
 
 
 def bare_rate(spec: SessionSpec, followers: list[str], seconds: float,
-              timeout: float) -> tuple[float, float, float]:
+              timeout: float, cost: MachineCost) -> tuple[float, float, float]:
     """Polls/s of a round-robin get loop with nothing but Zenoh in it (after two rounds
-    of warm-up), and the CPU time of its thread and of this process per poll."""
+    of warm-up), and the CPU time of its thread and of this process per poll (what it
+    cost the machine into ``cost``)."""
     with spec.open() as session:
         wait_for_routes(session, followers, timeout)
         queriers = [session.declare_querier(
@@ -317,13 +321,16 @@ def bare_rate(spec: SessionSpec, followers: list[str], seconds: float,
         polls, start, end, cpu, process = -2 * len(queriers), 0.0, float("inf"), 0.0, 0.0
         while time.perf_counter() < end:
             if polls == 0:
+                cost.begin()
                 start, cpu, process = time.perf_counter(), time.thread_time(), time.process_time()
                 end = start + seconds
             for _ in queriers[polls % len(queriers)].get(payload=poll):
                 pass
             polls += 1
-        return (polls / (time.perf_counter() - start), (time.thread_time() - cpu) / polls,
-                (time.process_time() - process) / polls)
+        figures = (polls / (time.perf_counter() - start), (time.thread_time() - cpu) / polls,
+                   (time.process_time() - process) / polls)
+        cost.end(polls)
+        return figures
 
 
 def measure(n: int, args: argparse.Namespace) -> None:
@@ -340,13 +347,17 @@ def measure(n: int, args: argparse.Namespace) -> None:
     # (2 cores, a router and the hosts) would swamp what the poll thread itself costs.
     profilers: list[cProfile.Profile] | None = [] if args.profile else None
     up = time.perf_counter()
-    with children(jobs):
+    with children(jobs) as pids:
         up = time.perf_counter() - up
+        roles = {"router": pids[0], **{f"host {i}": pid for i, pid in enumerate(pids[1:])}}
+        costs = {kind: MachineCost(roles) for kind in ("leader", "bare")}
         joined, polled, rss_joined, rss_end, window = leader_run(node, followers, args, seconds,
-                                                                 profilers)
-        bare = bare_rate(node, followers, args.bare_seconds, args.timeout) \
+                                                                 profilers, costs["leader"])
+        bare = bare_rate(node, followers, args.bare_seconds, args.timeout, costs["bare"]) \
             if args.bare_seconds > 0 else None
     report(n, args, up, joined, polled, rss_joined, rss_end, window, bare)
+    print("\n".join([*costs["leader"].lines("leader"),
+                     *(costs["bare"].lines("bare get loop") if bare is not None else [])]))
     if profilers:
         print(f"\n  poll threads' profile (whole run, cProfile: slower than unprofiled), "
               f"top {args.profile} by own time:")
