@@ -6,7 +6,9 @@ The topic's type and RIHS01 hash are found from the first publisher's liveliness
 (``@ros2_lv/<D>/.../MP/.../<topic>/<type>/<hash>/...``) or the first data key seen
 (``<D>/<topic>/<type>/<hash>``); samples of any other type on the topic are counted as
 bad input, never served. Each sample's CDR bytes are offered as they came, generated at
-the source time of its attachment (the publisher's clock: the robot's), else at its
+the source time of its attachment put on the follower's clock (``SourceTimes``: used as
+it is where the publisher keeps this host's clock, as rmw_zenoh does; mapped where it
+keeps one of its own, as PX4 does with microseconds since its boot), else at its
 arrival. Once the type is known the follower holds the token
 ``wiswarm/<swarm>/<follower>/source/ros2/<topic>/<type>/<hash>``, by which a ``--ros2``
 leader republishes the updates with that type (``republish``)."""
@@ -37,7 +39,7 @@ from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.entities import Declared, undeclare
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.keys import SwarmKeys
-from wiswarm_zenoh.transport.source_feed import Feed
+from wiswarm_zenoh.transport.source_feed import Feed, SourceTimes
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +73,11 @@ def parse_source_token(keys: SwarmKeys, key: str) -> tuple[str, str, RosType] | 
     return None if follower is None or kind is None else (follower, topic, kind)
 
 
+def described(source: Ros2TopicSource) -> str:
+    """How the log names ``source``."""
+    return f"ROS 2 topic {source.topic} (domain {source.domain})"
+
+
 @dataclass(frozen=True)
 class Ros2TopicSource:
     """The ROS 2 topic ``topic`` (a full name, ``/drone1/camera/image_raw/compressed``)
@@ -90,15 +97,18 @@ class Ros2TopicSource:
 
 class TopicWatch:
     """The samples of ``source``'s topic, of its type only (found as the module says):
-    ``on_sample(cdr, source_ns, type)`` for each (on Zenoh's thread; ``source_ns`` None
-    where the attachment gives no source time, reported in ``bad_input``) and, once,
-    ``on_type(type)`` when the type is found, under a lock that ``close`` takes too.
-    ``who`` names the follower in the log."""
+    ``on_sample(cdr, source_ns, type)`` for each (on Zenoh's thread; ``source_ns`` the
+    attachment's source time on this host's clock, ``times``, or None where the
+    attachment gives none, reported in ``bad_input``) and, once, ``on_type(type)`` when
+    the type is found, under a lock that ``close`` takes too. ``who`` names the follower
+    in the log."""
 
     def __init__(self, session: zenoh.Session, source: Ros2TopicSource, who: str,
                  bad_input: BadInputLog, on_sample: Callable[[bytes, int | None, RosType], object],
-                 on_type: Callable[[RosType], object] = lambda kind: None) -> None:
+                 on_type: Callable[[RosType], object] = lambda kind: None,
+                 times: SourceTimes | None = None) -> None:
         self._source, self._who, self._bad_input = source, who, bad_input
+        self._times = SourceTimes(who, described(source)) if times is None else times
         self._on_sample_of, self._on_type = on_sample, on_type
         self.type: RosType | None = None
         self._found = threading.Lock()
@@ -131,7 +141,7 @@ class TopicWatch:
         try:
             if attached is None:
                 raise ValueError("no attachment")
-            source_ns = source_time_ns(attached.to_bytes())
+            source_ns = self._times.at(source_time_ns(attached.to_bytes()))
         except ValueError as exc:  # served, stamped at its arrival
             self._bad_input.report(key, f"{exc}: stamped at its arrival")
         self._on_sample_of(sample.payload.to_bytes(), source_ns, kind)
@@ -165,12 +175,13 @@ class TopicFeed(Feed):
 
     def __init__(self, session: zenoh.Session, source: Ros2TopicSource,
                  node: FollowerNode) -> None:
-        super().__init__(node, f"ROS 2 topic {source.topic} (domain {source.domain})",
+        super().__init__(node, described(source),
                          "`ros2 topic list` on the robot lists its topics")
         self._session, self._source, self._node = session, source, node
         self._token: Declared | None = None
-        self._watch = TopicWatch(session, source, f"follower {node.follower_id}",
-                                 node.bad_input, self._on_sample, self._on_type)
+        who = f"follower {node.follower_id}"
+        self._watch = TopicWatch(session, source, who, node.bad_input, self._on_sample,
+                                 self._on_type, SourceTimes(who, self.what, self.now))
 
     @property
     def type(self) -> RosType | None:

@@ -10,7 +10,13 @@ overtook each other on the way: the queue must never hold an older update in pla
 newer one), counts samples the follower cannot take (larger than its
 ``max_update_bytes``), says once that it is waiting for the first sample, and warns once
 if none came within ``SILENT_AFTER`` seconds: the one line a user with a mistyped topic
-or key needs, at the default log level."""
+or key needs, at the default log level.
+
+``SourceTimes`` puts a source's own stamps on this host's clock (``core.source_clock``):
+a source that stamps on a clock of its own (PX4's microseconds since boot, simulated
+time, a robot minutes off) would otherwise look decades or minutes stale, and nobody
+would know why. What is decided about the source's clock is said in one line: a WARNING
+naming the follower and the source when its stamps are mapped or not used."""
 
 from __future__ import annotations
 
@@ -24,6 +30,7 @@ from typing import Protocol
 
 import zenoh
 
+from wiswarm_zenoh.core.source_clock import NEAR, NS_PER_S, SourceClock
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 
@@ -110,6 +117,31 @@ class Feed:
         log.info("follower %s: %d samples of %s offered, %d too large to serve, %d older "
                  "than one offered before", self._node.follower_id, self.samples, self.what,
                  self.oversized, self.older)
+
+
+class SourceTimes:
+    """One source's raw stamps as ns on this host's clock (``clock``, in seconds), from
+    any thread. ``who`` and ``what`` name the follower and the source in the line that
+    says what was decided about its clock: INFO for this host's own clock, else a
+    WARNING, as every age the leader reports of this source depends on it."""
+
+    def __init__(self, who: str, what: str, clock: Callable[[], float] = time.time) -> None:
+        self._who, self._what, self._clock = who, what, clock
+        self._source = SourceClock()
+        self._lock = threading.Lock()
+
+    def at(self, raw: int) -> int:
+        """The generation time (ns since the epoch, this host's clock) of a sample that
+        its source stamped ``raw`` and that arrives now."""
+        with self._lock:
+            stamped = self._source.stamp(raw, round(self._clock() * NS_PER_S))
+            notices = []
+            while (notice := self._source.next_notice()) is not None:
+                notices.append(notice)
+        for notice in notices:
+            log.log(logging.INFO if notice.kind == NEAR else logging.WARNING, "%s: %s: %s",
+                    self._who, self._what, notice.text)
+        return stamped
 
 
 def zenoh_time(timestamp: zenoh.Timestamp | None) -> float | None:
