@@ -34,6 +34,8 @@ MORE_BAD = {
     "int list": ("2,x", "2,0", "2,"),
     "float list": ("1,nan", "1,-1"),
     "range": ("1:nan", "2:1", "0.5"),
+    "member=weight": ("uav1=-1", "uav1=nan", "uav1=1e400", "uav1=", "=2", "uav1", "a b=1",
+                      "leader=1", "u/1=2"),
 }
 
 A_NAME = "a key chunk: any word without / * $ ? # or spaces, within the wire's length"

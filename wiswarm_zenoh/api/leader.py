@@ -4,7 +4,7 @@ channel, as zenoh-python's subscribers do)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from types import TracebackType
 from typing import Any
 
@@ -34,7 +34,8 @@ class Leader(Receiver[Delivered]):
     ``forget_after`` (how long a departed follower's stats stay) default to the leader's
     own; ``epoch`` to the start time in microseconds. ``config`` holds the policy,
     timeouts and control period. Each follower's stats are made while someone subscribes
-    to them, or every round with ``every_record`` (for ``stats`` in this process)."""
+    to them, or every round with ``every_record`` (for ``stats`` in this process).
+    ``weights`` gives members a weight before they join, taken each time one joins."""
 
     def __init__(
         self,
@@ -52,6 +53,7 @@ class Leader(Receiver[Delivered]):
         forget_after: float | None = None,
         epoch: int | None = None,
         every_record: bool = False,
+        weights: Mapping[str, float] | None = None,
     ) -> None:
         on_delivery, channel = deliver_to(handler)
         super().__init__(channel)
@@ -61,7 +63,7 @@ class Leader(Receiver[Delivered]):
         self._node = LeaderNode(session, swarm, config, on_delivery=on_delivery,
                                 on_join=on_join, on_leave=on_leave, on_role=on_role,
                                 epoch=epoch, name=name, bridge=bridge,
-                                every_record=every_record, **timings)
+                                every_record=every_record, weights=weights, **timings)
 
     @property
     def swarm(self) -> str:

@@ -24,11 +24,13 @@ from wiswarm_zenoh.options import (
     IN_FLIGHT,
     UsageError,
     add_ros2_arguments,
+    add_weight_argument,
     finite_float,
     host_port,
     node_name,
     positive_float,
     positive_int,
+    preset_weights,
     ros2_options,
     writable_file,
 )
@@ -43,7 +45,7 @@ LEADER_ONLY = {"policy": ("wiswarm",), "timeout": ("wiswarm",), "window": ("wisw
                "upstream": ("wiswarm",), "site": ("wiswarm",), "in_flight": ("wiswarm",),
                "timeout_floor": ("wiswarm",), "ros2": ("wiswarm",), "ros_domain": ("wiswarm",),
                "ros_namespace": ("wiswarm",), "ros_updates": ("wiswarm",),
-               "ros_max_rate": ("wiswarm",),
+               "ros_max_rate": ("wiswarm",), "weight": ("wiswarm",),
                "bind": ("udp", "tcp")}
 
 def _receiver(args: argparse.Namespace) -> int:
@@ -83,7 +85,7 @@ def _leader(args: argparse.Namespace) -> int:
         raise UsageError(f"--upstream must be another swarm than --swarm ({args.swarm!r})")
     options = LeaderOptions(args.swarm, config, args.duration, args.record,
                             name=args.name, upstream=args.upstream, site=args.site,
-                            bridge=ros2_options(args))
+                            bridge=ros2_options(args), weights=preset_weights(args.weight))
     spec = session_spec(args, "peer")
     check_upstream(args.config, args.upstream, args.site or args.swarm)
     table, rates = LiveTable(), PollRates()
@@ -155,6 +157,7 @@ def register_leader(subparsers: Any) -> None:
                         help="with --upstream: this site's name there (default: --swarm)")
     leader.add_argument("--record", metavar="CSV", type=writable_file(),
                         help="write every delivery to this file (its directory must exist)")
+    add_weight_argument(leader)
     add_ros2_arguments(leader)
     add_common(leader, ("peer", "client"))
     leader.set_defaults(func=_leader)

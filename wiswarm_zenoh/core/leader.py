@@ -12,14 +12,15 @@ from wiswarm_zenoh.core.control_schedule import ControlSchedule
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Event, Rejected, Stale, drain
 from wiswarm_zenoh.core.in_flight import InFlightTuner
+from wiswarm_zenoh.core.member_book import MemberBook, check_weight
 from wiswarm_zenoh.core.messages import check_epoch
 from wiswarm_zenoh.core.peers import FollowerStats, Peer, PeerTable
 from wiswarm_zenoh.core.plausibility import implausible
 from wiswarm_zenoh.core.policies import IndexPolicy, make_policy
+from wiswarm_zenoh.core.poll_hold import PollHold
 from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
 from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
-from wiswarm_zenoh.core.sources import worth_waiting
 from wiswarm_zenoh.core.wire import (
     Poll,
     decode_reply,
@@ -42,7 +43,8 @@ class Leader:
     membership (``add_/remove_/forget_follower``), the application's control and
     weights, ``receive_reply(follower, data, now)`` for every reply,
     ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
-    ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once. Output:
+    ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once (who joins
+    and leaves, and the weights preset for them: ``member_book``). Output:
     ``next_poll(now)`` until None (each poll, with the control broadcast when it is due:
     ``config.control_period``), ``next_event()`` until None (it only pops). Bad bytes
     never raise: they come back as ``Rejected`` events, counted against the follower.
@@ -76,10 +78,9 @@ class Leader:
         self._pick: Pick | None = None
         self._picked_for = 0  # the poll a pick was last tried for
         self._answered_seq = 0  # the poll answered last
-        self._hold_until = -math.inf  # no poll before then: a phased source's next update
-        self._held = False  # a poll was held since the last one sent: none is held again
-        self._departed: dict[str, Peer] = {}  # left, not forgotten: ageing in ``stats``
+        self._hold = PollHold()  # a lone poll held for a phased source's next update
         self.site_links = SiteLinks()
+        self.members = MemberBook(self.config, self.table, self.site_links)
         in_flight = self.config.in_flight
         self.tuner = InFlightTuner() if in_flight == "auto" else None
         self._fixed_in_flight = 1 if in_flight == "auto" else in_flight
@@ -92,7 +93,7 @@ class Leader:
     @property
     def departed(self) -> list[str]:
         """Followers that left and are not forgotten: polled no more, their age growing."""
-        return list(self._departed)
+        return list(self.members.departed)
 
     @property
     def polls_allowed(self) -> int:
@@ -125,48 +126,33 @@ class Leader:
         comes back is taken up where it was: its age is what its last delivery makes it,
         not a fresh start; the polls it missed while gone leave its p, and it is polled
         as soon as its index says, not when a probe's back-off ends. Followers given one
-        ``link`` (a site) share its p."""
+        ``link`` (a site) share its p. A weight preset for it (``preset_weight``) is
+        its weight again at each join."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._pick = None
         self._control.changed()  # the newcomer needs the control now
-        peer = self.table.peers.get(follower)
-        if peer is not None:
-            peer.restart()
-            return
-        back = self._departed.pop(follower, None)
-        if back is not None:
-            back.restart()
-            back.left_at = None
-        peer = back or Peer.new(follower, self.config, now, self.table.poll_times)
-        if link is not None:
-            self.site_links.attach(follower, peer, link)
-        self.table.add(peer)
+        self.members.join(follower, now, link)
 
     def remove_follower(self, follower: str, now: float | None = None) -> None:
         """A follower left (its liveliness token went) at ``now``: it is polled no more,
         its poll and replies are dropped. Its record stays, ageing (``stats``,
         ``departed``), as nothing fresh comes from it, until ``forget_follower`` or its
         return; its mean and p95 AoI stay those of its time present."""
-        peer = self.table.peers.get(follower)
-        if peer is None:
+        if not self.members.leave(follower, now):
             return
-        peer.left_at = now
         self._flights.pop(follower, None)
         self._pick = None
-        self.table.remove(follower)
-        self.site_links.detach(follower)
-        self._departed[follower] = peer
         self._control.drop(follower)
 
     def forget_follower(self, follower: str) -> None:
         """Drop the record of a follower that left (the shell decides how long to keep
         showing its age)."""
-        self._departed.pop(follower, None)
+        self.members.departed.pop(follower, None)
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """The application's latest control information for one follower."""
-        self._peer(follower)
+        self.members.peer(follower)
         self._control.set(follower, waypoints)
 
     def rise_above(self, heard: int, now: float, weights: Mapping[str, float] | None = None,
@@ -188,10 +174,7 @@ class Leader:
         does not know yet are skipped: their tokens bring them in."""
         check_epoch(epoch)
         self.epoch = epoch
-        for follower, weight in weights.items():
-            peer = self.table.peers.get(follower)
-            if peer is not None and math.isfinite(weight) and weight >= 0.0:
-                peer.set_weight(weight)
+        self.members.take_weights(weights)
         for follower, waypoints in control.items():
             if follower in self.table.peers:
                 self._control.waypoints[follower] = validate_waypoints(waypoints)
@@ -200,22 +183,27 @@ class Leader:
 
     def observe_urgency(self, follower: str, v: float) -> float:
         """Feed the application's urgency signal into the weight EMA; returns the weight."""
-        return self._peer(follower).observe_urgency(v)
+        return self.members.peer(follower).observe_urgency(v)
 
     def set_weight(self, follower: str, weight: float) -> None:
         """An operator's weight for ``follower``, as is (the urgency EMA goes on from
         it); ValueError for a follower not polled or a weight that is not >= 0."""
-        if not (math.isfinite(weight) and weight >= 0.0):
-            raise ValueError(f"a weight must be a number >= 0, got {weight!r}")
-        self._peer(follower).set_weight(weight)
+        self.members.peer(follower).set_weight(check_weight(weight))
         self._pick = None  # a pick made ahead weighed the old weight
+
+    def preset_weight(self, follower: str, weight: float) -> None:
+        """An operator's weight for ``follower`` whether it is a member yet or not: its
+        weight now if it is, and each time it joins (or comes back); ValueError for a
+        weight that is not >= 0. ``members.never_joined``: those not seen yet."""
+        self.members.preset(follower, weight)
+        self._pick = None
 
     def receive_reply(self, follower: str, data: object, now: float) -> None:
         """One reply from ``follower`` (the key it came from), whatever it holds (not
         bytes at all: refused, as garbage is)."""
         peer = self.table.peers.get(follower)
         if peer is None:  # one that just left may still answer: that is no bad input
-            if follower not in self._departed:
+            if follower not in self.members.departed:
                 self.unknown_replies += 1
                 self._events.append(Stale(follower, "reply from a follower that is not a member"))
             return
@@ -277,7 +265,7 @@ class Leader:
         (then, with one out, the pick for after it is made), nobody is left to poll, no
         poll can find anything new before ``get_timer()`` (every source paced and none
         due, no probe due: ``sources``), or the poll picked is worth holding until its
-        phased source's next update is ready (``_holds``; ``get_timer()`` says when)."""
+        phased source's next update is ready (``poll_hold``; ``get_timer()`` says when)."""
         out, allowed = self._flights, self.polls_allowed
         if len(out) >= allowed or len(out) >= len(self.table.ids):
             if allowed == 1:
@@ -285,10 +273,11 @@ class Leader:
             return None
         if self._waits_for_sources(now):
             return None
-        if self._hold_until > -math.inf:
-            if now < self._hold_until:
+        hold = self._hold
+        if hold.until > -math.inf:
+            if now < hold.until:
                 return None
-            self._hold_until = -math.inf
+            hold.until = -math.inf
         pick, self._pick = self._pick, None
         if not out and pick is not None and pick.poll_seq == self._answered_seq \
                 and still_holds(pick, self.table, now):
@@ -296,7 +285,8 @@ class Leader:
         else:
             fast, choice = False, choose(self.table, self.policy, self.slot, now,
                                          {self.table.index(f) for f in out})
-        if allowed == 1 and not out and self.table.known_intervals and self._holds(choice, now):
+        if allowed == 1 and not out and self.table.known_intervals and self._pacing \
+                and hold.holds(self.table, choice, now):
             return None
         if fast:
             self.fast_polls += 1
@@ -312,8 +302,8 @@ class Leader:
         poll held (``next_poll``) goes out."""
         flights = self._flights
         wake = math.inf
-        if self._hold_until > -math.inf:  # (none out)
-            wake = self._hold_until
+        if self._hold.until > -math.inf:  # (none out)
+            wake = self._hold.until
         elif self._waits_for_sources(-math.inf) \
                 and len(flights) < min(self.polls_allowed, len(self.table.ids)):
             wake = self.table.wake_at()
@@ -324,13 +314,11 @@ class Leader:
     def stats(self, follower: str, now: float, refused_before: int = 0) -> FollowerStats:
         """One follower's figures (one that left: ageing); ``refused_before``: its
         replies the shell refused before they reached the core (counted in ``errors``)."""
-        if follower in self._departed:
-            return self._departed[follower].stats(now, refused_before, present=False)
-        return self._peer(follower).stats(now, refused_before)
+        return self.members.stats(follower, now, refused_before)
 
     def mean_aoi(self, follower: str, now: float) -> float:
         """A present follower's mean AoI so far (its ``stats`` without the rest)."""
-        return self._peer(follower).aoi.mean(now)
+        return self.members.peer(follower).aoi.mean(now)
 
     # --- inside ---
 
@@ -343,28 +331,6 @@ class Leader:
         table = self.table
         return self._pacing and table.unfresh > 0 and table.silent < len(table) \
             and table.wake_at() > now
-
-    def _holds(self, i: int, now: float) -> bool:
-        """Whether the poll of the follower at ``i``, the only one to go out, is better
-        sent when its phased source's next update is ready (``sources.worth_waiting``);
-        then nothing goes out until ``_hold_until``. Once per poll: the pick made then
-        is sent whatever its phase."""
-        table = self.table
-        pace = table.peers[table.ids[i]].pace
-        if self._held or not self._pacing or not pace.phased or pace.paced:
-            return False
-        wait = worth_waiting(now, table.tau[i], table.ready[i], table.interval[i],
-                             table.w[i] * table.p[i], sum(table.w))
-        if wait <= 0.0:
-            return False
-        self._held, self._hold_until = True, now + wait
-        return True
-
-    def _peer(self, follower: str) -> Peer:
-        try:
-            return self.table.peers[follower]
-        except KeyError:
-            raise ValueError(f"unknown follower {follower!r}") from None
 
     def _reject(self, peer: Peer, follower: str, reason: str) -> None:
         peer.refused(first_for_poll=False)
@@ -411,7 +377,8 @@ class Leader:
         (steady if ``one_allowed`` and it is the only one out, to a follower answering)."""
         follower = self.table.ids[choice]
         peer = self.table.peers[follower]
-        self._held, self._hold_until = False, -math.inf
+        hold = self._hold
+        hold.held, hold.until = False, -math.inf
         self._poll_seq += 1
         self.polls += 1
         peer.polled()

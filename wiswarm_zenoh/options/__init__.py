@@ -43,6 +43,7 @@ from wiswarm_zenoh.options.testbed import (
     wifi_of,
     wifi_spec,
 )
+from wiswarm_zenoh.options.weights import MEMBER_WEIGHT, add_weight_argument, preset_weights
 from wiswarm_zenoh.units import format_rate
 from wiswarm_zenoh.usage import OneLineParser, UsageError
 
@@ -52,6 +53,7 @@ __all__ = [
     "IN_FLIGHT",
     "IN_FLIGHTS",
     "LISTEN_ENDPOINT",
+    "MEMBER_WEIGHT",
     "PROBABILITIES",
     "RATE",
     "RUN_ID",
@@ -68,6 +70,7 @@ __all__ = [
     "add_rates",
     "add_ros2_arguments",
     "add_source_arguments",
+    "add_weight_argument",
     "add_wifi_arguments",
     "add_zenoh_arguments",
     "channel_spec",
@@ -84,6 +87,7 @@ __all__ = [
     "parse_size",
     "positive_float",
     "positive_int",
+    "preset_weights",
     "require_testbed",
     "ros2_options",
     "show_written",

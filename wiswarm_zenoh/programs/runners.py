@@ -324,6 +324,7 @@ class LeaderOptions:
     upstream: str | None = None  # an edge leader: the parent swarm it is a follower of
     site: str | None = None  # its name there (followers appear as <site>.<follower>)
     bridge: BridgeOptions | None = None  # e.g. the ROS 2 side (wiswarm_zenoh.ros2)
+    weights: tuple[tuple[str, float], ...] = ()  # (member, weight): taken at each join
 
 
 def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
@@ -352,7 +353,7 @@ def run_leader(spec: SessionSpec, options: LeaderOptions, stop: StopSignal,
                 on_join=None if upstream is None else upstream.on_join,
                 on_leave=None if upstream is None else upstream.on_leave,
                 on_role=None if upstream is None else upstream.on_role,
-                name=options.name, bridge=options.bridge,
+                name=options.name, bridge=options.bridge, weights=dict(options.weights),
                 every_record=show is not None or options.stats_file is not None)
             with node:  # at once: a Ctrl-C from here on still closes it before the session
                 if upstream is not None:
