@@ -124,7 +124,7 @@ def test_a_config_zenoh_refuses_is_never_rendered() -> None:
 
 
 def test_a_ros2_leader_gets_its_ros2_keys_and_no_more(tmp_path: Path) -> None:
-    """``--ros2``: the leader may put its topics, hear Paths and hold its node's tokens
+    """``--ros2``: the leader may put its topics, hear Paths and weights and hold its node's tokens
     (keys Zenoh accepts in a rule, ``@ros2_lv`` and ``%`` included); nobody else gets
     any ROS 2 key, and ``add-follower`` keeps them."""
     out = tmp_path / "pki"
@@ -138,6 +138,8 @@ def test_a_ros2_leader_gets_its_ros2_keys_and_no_more(tmp_path: Path) -> None:
         ("put", "ingress", "3/wiswarm/s1/*/*/*/*"), ("put", "ingress", "3/diagnostics/*/*"),
         ("declare_subscriber", "ingress", "3/wiswarm/s1/*/waypoints/*/*"),
         ("put", "egress", "3/wiswarm/s1/*/waypoints/*/*"),
+        ("declare_subscriber", "ingress", "3/wiswarm/s1/*/weight/*/*"),
+        ("put", "egress", "3/wiswarm/s1/*/weight/*/*"),
         ("liveliness_token", "ingress", "@ros2_lv/3/*/*/*/*/%/%wiswarm%s1/wiswarm_leader/**"),
         ("declare_subscriber", "egress", "3/wiswarm/s1/*/*/*/*"),
         ("declare_subscriber", "egress", "3/diagnostics/*/*")}

@@ -10,8 +10,12 @@ from typing import Any, cast
 import pytest
 import zenoh
 
+from wiswarm_zenoh.ros2.graph import data_key
+from wiswarm_zenoh.ros2.messages import message_class, ros_type, serialize
 from wiswarm_zenoh.security import pki
+from wiswarm_zenoh.security.acl import Roster
 from wiswarm_zenoh.security.configs import node_config, render
+from wiswarm_zenoh.security.deploy import Plan, init
 
 from .helpers import KEYS, SWARM, Inbox, Sessions, answer, flushed, replies, until
 
@@ -93,6 +97,35 @@ def test_a_follower_cannot_set_a_weight(sessions: Sessions, router: zenoh.Sessio
     tool.put(KEYS.weight("f2"), b"3")
     assert set(weights.wait_for(b"3")) == {b"2"}
     ack.undeclare()
+
+
+def test_a_follower_cannot_set_a_weight_over_ros2(tmp_path: Path, port: int) -> None:
+    # With --ros2 the leader hears weights on <ns>/<follower>/weight too: only its side
+    # may put there, as on the weight key.
+    endpoint = (f"tls/127.0.0.1:{port}",)
+    init(tmp_path / "ros2", Plan(Roster(SWARM, "leader", ("f1", "f2"), ros2=(0, None)),
+                                 listen=endpoint, connect=endpoint, days=1))
+    sessions = Sessions(tmp_path / "ros2")
+    try:
+        sessions.open("router")
+        leader, tool, f2 = (sessions.open(n) for n in ("leader", "leader", "f2"))
+        kind = ros_type("std_msgs/msg/Float64")
+        key = data_key(0, f"/wiswarm/{SWARM}/f2/weight", kind)
+        weights = Inbox(leader, f"0/wiswarm/{SWARM}/*/weight/*/*")
+        ack = answer(f2, KEYS.update("f2"), b"ack")
+
+        def weight(value: float) -> bytes:
+            return serialize(message_class(kind.name)(data=value), kind.name)
+
+        until("the tool's weight reaches the leader",
+              lambda: _put_and_check(tool, weights, weight(2.0), key))
+        f2.put(key, weight(100.0))
+        flushed(leader, "f2")
+        tool.put(key, weight(3.0))
+        assert set(weights.wait_for(weight(3.0))) == {weight(2.0)}
+        ack.undeclare()
+    finally:
+        sessions.close_all()
 
 
 def _put_and_check(leader: zenoh.Session, inbox: Inbox, payload: bytes,

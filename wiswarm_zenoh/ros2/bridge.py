@@ -3,7 +3,8 @@ as the application's messages on ``<ns>/<follower>/<leaf>`` (a follower serving 
 topic: as the message it is, on ``<ns>/<follower>/<topic>``, see ``republish``), the
 followers' stats on ``/diagnostics``, and a ``nav_msgs/msg/Path`` on
 ``<ns>/<follower>/waypoints`` as that follower's control, checked as ``set_control``
-checks any caller's.
+checks any caller's, and a ``std_msgs/msg/Float64`` on ``<ns>/<follower>/weight`` as its
+weight (``weight_topic``).
 
 The poll thread only leaves each delivery in its follower's slot (``Freshest``); a
 thread of the bridge's own maps, serializes and puts it. A delivery that finds an older
@@ -33,6 +34,7 @@ from wiswarm_zenoh.ros2.messages import DIAGNOSTIC_ARRAY, NS_PER_S, PATH
 from wiswarm_zenoh.ros2.node import Ros2Node, Ros2Publisher
 from wiswarm_zenoh.ros2.republish import Republisher
 from wiswarm_zenoh.ros2.waypoints import path_waypoints
+from wiswarm_zenoh.ros2.weight_topic import WeightTopic
 from wiswarm_zenoh.transport import BadInputLog, Freshest, SwarmKeys
 from wiswarm_zenoh.transport.bridge import ControlTarget
 
@@ -90,6 +92,8 @@ class Ros2Bridge:
         self._diagnostics = self._node.publisher(DIAGNOSTICS, DIAGNOSTIC_ARRAY)
         self._republisher = Republisher(session, self._keys, self._node, self.namespace,
                                         self.bad_input, control.expect)
+        self._weights = WeightTopic(session, self._node, self.namespace, control,
+                                    self.bad_input)
         self._followers: dict[str, list[Ros2Publisher]] = {}
         self._waypoint_topics: set[str] = set()  # followers whose Path is listened to
         # Per follower, the freshest delivery unsent and its publishers (None: its source's
@@ -152,6 +156,7 @@ class Ros2Bridge:
         self.published += 1
 
     def stats(self, records: Sequence[FollowerStats], now: float) -> None:
+        self._weights.show(record.follower for record in records)
         for record in records:
             if record.present and self._source(record.follower) is None:
                 self._publishers(record.follower)
@@ -194,6 +199,7 @@ class Ros2Bridge:
         self._unsent.close()
         self._thread.join()
         self._republisher.close()
+        self._weights.close()
         self._node.close()
         log.info("ROS 2: %d deliveries published, %d superseded unsent by a newer one, "
                  "%d over the rate limit", self.published, self.superseded, self.throttled)

@@ -89,15 +89,17 @@ def _once(names: list[str], what: str) -> None:
 def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[Rule]:
     """What ``wiswarm leader --ros2`` sends and hears as a ROS 2 node (rmw_zenoh's keys):
     its topics' data (``<ns>/<follower>/<leaf>`` and ``/diagnostics``, any type), Paths
-    on ``<ns>/<follower>/waypoints``, and its own node's liveliness tokens."""
+    on ``<ns>/<follower>/waypoints`` and weights on ``<ns>/<follower>/weight``, and its
+    own node's liveliness tokens. Only the leader's side puts there (``data``): a
+    follower can neither steer another nor raise its own weight."""
     ns = namespace or default_namespace(swarm)
     data = [f"{domain}{ns}/*/*/*/*", f"{domain}/diagnostics/*/*"]
-    waypoints = [f"{domain}{ns}/*/waypoints/*/*"]
+    heard = [f"{domain}{ns}/*/waypoints/*/*", f"{domain}{ns}/*/weight/*/*"]
     tokens = [f"{ADMIN_SPACE}/{domain}/*/*/*/*/%/{mangle(ns)}/{NODE_NAME}/**"]
     return [
         rule("leader-ros2-publishes", ["put"], INGRESS, data),
-        rule("leader-ros2-subscribes", ["declare_subscriber"], INGRESS, waypoints),
-        rule("leader-ros2-hears-paths", ["put"], EGRESS, waypoints),
+        rule("leader-ros2-subscribes", ["declare_subscriber"], INGRESS, heard),
+        rule("leader-ros2-hears-paths", ["put"], EGRESS, heard),
         rule("leader-ros2-tokens", ["liveliness_token"], INGRESS, tokens),
         rule("leader-ros2-sees-listeners", ["declare_subscriber"], EGRESS, data),
     ]
