@@ -59,3 +59,26 @@ def test_a_leader_taking_over_starts_from_the_weights_and_control_it_was_given()
     assert followers["b"].on_control(request.control, 1.0) == [(1.0, 2.0, 3.0, 4.0)]
     with pytest.raises(ValueError, match="epoch"):
         leader.take_over(-1, {}, {})
+
+
+def test_each_site_gets_a_control_of_its_own_entries_only() -> None:
+    """A cloud's followers are its sites' (joined with their site as link): each site's
+    message holds its followers' waypoints only, those of no site go on the plain key,
+    and a site with no waypoints yet still gets its (empty) message, for the epoch."""
+    leader = Leader()
+    for follower, site in (("s1.a", "s1"), ("s1.b", "s1"), ("s2.c", "s2"), ("s3.d", "s3")):
+        leader.add_follower(follower, 0.0, link=site)
+    leader.set_control("s1.a", [(1.0, 1.0, 1.0, 1.0)])
+    leader.set_control("s2.c", [(2.0, 2.0, 2.0, 2.0)])
+    first = poll(leader, 1.0)
+    controls = first.controls
+    assert controls is not None
+    entries = {site: decode_control(message).entries for site, message in controls.items()}
+    assert entries == {"s1": {"s1.a": [(1.0, 1.0, 1.0, 1.0)]},
+                       "s2": {"s2.c": [(2.0, 2.0, 2.0, 2.0)]}, "s3": {}}
+    on_timer(leader, first.deadline)
+    leader.add_follower("plain", first.deadline)
+    leader.remove_follower("s3.d", first.deadline)
+    controls = poll(leader, first.deadline).controls
+    assert controls is not None and set(controls) == {None, "s1", "s2"}
+    assert decode_control(controls[None]).entries == {}

@@ -62,22 +62,33 @@ def test_argparse_errors_exit_2(wiswarm: object, capsys: pytest.CaptureFixture[s
     assert capsys.readouterr().err.count("\n") == 1
 
 
-@pytest.mark.parametrize(("flag", "first", "second", "why"), [
-    ("--ros2-topic", "/a", "/b", "one follower serves one topic; run a follower per topic"),
-    ("--source", "robot/a", "robot/b",
-     "one follower serves one source; run a follower per source"),
-    ("--ros2-waypoints", "/a/path", "/b/path", "a follower publishes its waypoints on one topic"),
-])
-def test_a_follower_flag_given_twice_is_one_line_and_exit_2(flag: str, first: str,
-                                                            second: str, why: str) -> None:
+def test_a_follower_flag_given_twice_is_one_line_and_exit_2() -> None:
     """Not the last one served silently: argparse's default for a repeated flag."""
     wiswarm = Path(sys.executable).with_name("wiswarm")
-    done = subprocess.run([str(wiswarm), "follower", "--id", "d1", flag, first, flag, second],
+    done = subprocess.run([str(wiswarm), "follower", "--id", "d1", "--ros2-waypoints",
+                           "/a/path", "--ros2-waypoints", "/b/path"],
                           capture_output=True, text=True, timeout=WAIT)
     assert done.returncode == 2
-    said = f"wiswarm follower: error: {flag} given twice ({first}, {second}): {why}\n"
-    assert done.stderr == said
+    assert done.stderr == ("wiswarm follower: error: --ros2-waypoints given twice (/a/path, "
+                           "/b/path): a follower publishes its waypoints on one topic\n")
     assert done.stdout == ""
+
+
+@pytest.mark.parametrize(("flags", "said"), [
+    (["--ros2-topic", "/a", "--ros2-topic", "/a"], "/a given twice: a robot serves a stream "
+     "once"),
+    (["--source", "robot/a", "--source", "robot/a/**"], "robot/a and robot/a/** are both "
+     "member 'd1~robot_a': name one, NAME=robot/a/**"),
+    (["--id", "d.1", "--source", "robot/a"], "argument --id: follower id 'd.1' must not "
+     "contain .: it joins a site and its follower in a cloud's (<site>.<id>)"),
+])
+def test_streams_that_cannot_be_told_apart_are_one_line_and_exit_2(
+        flags: list[str], said: str) -> None:
+    wiswarm = Path(sys.executable).with_name("wiswarm")
+    done = subprocess.run([str(wiswarm), "follower", "--id", "d1", *flags],
+                          capture_output=True, text=True, timeout=WAIT)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr == f"wiswarm follower: error: {said}\n"
 
 
 def test_a_client_whose_router_never_came_says_so_and_fails(

@@ -11,6 +11,7 @@ import time
 import zenoh
 
 from wiswarm_zenoh.core import Waypoint
+from wiswarm_zenoh.core.wire import decode_control
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode
 from wiswarm_zenoh.transport.edge import Upstream
 
@@ -100,3 +101,36 @@ def test_only_the_sites_active_edge_leader_serves_the_cloud(
     finally:
         standby.close()
         standby_up.close()
+
+
+def test_each_site_hears_only_its_own_control(
+        sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder) -> None:
+    """The cloud's waypoints for site 1's followers go on ``control/s1``, site 2's on
+    ``control/s2``: what a site's router, edge leader or followers can subscribe to
+    (``security`` allows each its own) holds nothing of another site's."""
+    heard: dict[str, set[str]] = {}
+    changed = threading.Condition()
+
+    def snoop(sample: zenoh.Sample) -> None:
+        entries = decode_control(sample.payload.to_bytes()).entries
+        with changed:
+            heard.setdefault(str(sample.key_expr), set()).update(entries)
+            changed.notify_all()
+
+    watcher = sessions.node(port)
+    _held = watcher.declare_subscriber("wiswarm/cloud/control/**", snoop)
+    _plain = watcher.declare_subscriber("wiswarm/cloud/control", snoop)
+    for member in ("s1.f1", "s2.f1"):  # as the sites' edge leaders serve them upstream
+        FollowerNode(sessions.node(port), "cloud", member, sample_on_poll=_stamped)
+    with LeaderNode(sessions.node(port), "cloud", name="cloud",
+                    **recorder.callbacks()) as cloud:
+        recorder.wait("both sites", lambda r: r.count("s1.f1") > 0 and r.count("s2.f1") > 0)
+        cloud.set_control("s1.f1", [(1.0, 1.0, 1.0, 1.0)])
+        cloud.set_control("s2.f1", [(2.0, 2.0, 2.0, 2.0)])
+        with changed:
+            assert changed.wait_for(lambda: {"s1.f1"} <= heard.get(
+                "wiswarm/cloud/control/s1", set()) and {"s2.f1"} <= heard.get(
+                "wiswarm/cloud/control/s2", set()), WAIT)
+    with changed:
+        assert heard == {"wiswarm/cloud/control/s1": {"s1.f1"},
+                         "wiswarm/cloud/control/s2": {"s2.f1"}}

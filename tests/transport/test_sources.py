@@ -82,7 +82,7 @@ def test_a_key_expression_is_checked_when_given() -> None:
     (["--source", "a//b"], "--source: not a key expression: 'a//b' (Invalid Key Expr"),
     (["--ros2-topic", "camera/raw"], "a ROS topic is /token[/token...]"),
     (["--ros2-waypoints", "/path/"], "a ROS topic is /token[/token...]"),
-    (["--source", "a/b", "--ros2-topic", "/t"], "give --source or --ros2-topic, not both"),
+    (["--source", "a/b", "--ros2-topic", "/a/b"], "a/b and /a/b are both member 'r1~a_b'"),
     (["--ros-domain", "3"], "--ros-domain is for --ros2-topic or --ros2-waypoints"),
     (["--ros2-topic", "/t", "--ros-domain", "300"], "--ros-domain"),
     (["--source", "a/b", "--rate", "5"], "--rate paces synthetic frames"),

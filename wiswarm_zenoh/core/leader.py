@@ -131,7 +131,7 @@ class Leader:
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._pick = None
-        self._control.changed()  # the newcomer needs the control now
+        self._control.join(follower, link)  # the newcomer needs the control now
         self.members.join(follower, now, link)
 
     def remove_follower(self, follower: str, now: float | None = None) -> None:

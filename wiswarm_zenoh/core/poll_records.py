@@ -14,9 +14,9 @@ __all__ = ["Flight", "Pick", "PollRequest"]
 
 @dataclass(slots=True)
 class PollRequest:
-    """A poll to send: ``payload`` to the follower, and ``control`` to broadcast
-    alongside when the control information is due (``LeaderConfig.control_period``);
-    None when it is not.
+    """A poll to send: ``payload`` to the follower, and ``controls`` to broadcast
+    alongside when the control information is due (``LeaderConfig.control_period``),
+    a message per site (None: the followers of no site); None when it is not.
 
     ``steady``: it is the only poll out, to a follower that answered its polls in time
     so far; the shell may then wait on this request's own replies alone and end the
@@ -34,17 +34,28 @@ class PollRequest:
     deadline: float
     sent_at: float
     control_seq: int
-    packed_entries: bytes | None  # the control's entries, when it is due with this poll
+    packed_entries: dict[str | None, bytes] | None  # by site, when control is due
     epoch: int
     steady: bool = False
 
     @property
-    def control(self) -> bytes | None:
-        """The control message to broadcast with this poll, encoded now; None when none is due."""
+    def controls(self) -> dict[str | None, bytes] | None:
+        """The control messages to broadcast with this poll, by site, encoded now; None
+        when none is due."""
         if self.packed_entries is None:
             return None
-        return encode_control_packed(self.control_seq, self.sent_at, self.packed_entries,
-                                     self.epoch)
+        return {site: encode_control_packed(self.control_seq, self.sent_at, packed,
+                                            self.epoch)
+                for site, packed in self.packed_entries.items()}
+
+    @property
+    def control(self) -> bytes | None:
+        """The message for the followers of no site (a single swarm's, all of them); None
+        when none is due or every follower is a site's."""
+        packed = None if self.packed_entries is None else self.packed_entries.get(None)
+        if packed is None:
+            return None
+        return encode_control_packed(self.control_seq, self.sent_at, packed, self.epoch)
 
 
 @dataclass(slots=True)

@@ -86,7 +86,8 @@ class SwarmChannels:
         handlers = {self.keys.leader_deliveries: json_payload(self._on_deliveries),
                     self.keys.all_stats: json_payload(self._on_stats),
                     f"{self.keys.prefix}/*/{TRACKING_LEAF}": json_payload(self._on_tracking),
-                    self.keys.control: self._on_control}
+                    self.keys.control: self._on_control,
+                    self.keys.all_site_controls: self._on_control}  # a cloud's, per site
         if self._adapter is not None:
             handlers[self.keys.all_fresh] = self._on_fresh
         return handlers

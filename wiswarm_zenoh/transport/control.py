@@ -21,8 +21,10 @@ ControlCallback = Callable[[list[Waypoint]], None]
 
 
 class ControlListener:
-    """Hands ``on_control`` this follower's entry of every control message on
-    ``wiswarm/<swarm>/control`` that the core follower says to obey, on Zenoh's thread;
+    """Hands ``on_control`` this follower's entry of every control message on its
+    control key (``wiswarm/<swarm>/control``; a site's follower in a cloud, named
+    ``<site>.<follower>``, its site's ``control/<site>``) that the core follower says to
+    obey, on Zenoh's thread;
     malformed and implausible messages are counted and logged in ``bad_input``.
 
     A ``FollowerNode`` listens through one, sharing its core (which knows the leader's
@@ -42,7 +44,8 @@ class ControlListener:
         self.bad_input = bad_input if bad_input is not None else BadInputLog(log)
         self._heard_at = time.monotonic()  # when the last control message came
         self._after_gap_until = 0.0  # messages before this are expected to be stale
-        self._shared = SessionControl.join(session, SwarmKeys(swarm).control, self)
+        self._shared = SessionControl.join(session, SwarmKeys(swarm).control_of(follower_id),
+                                           self)
 
     def take(self, control: Control, key: str) -> None:
         """A control message on ``key``, decoded once for every listener of the session.

@@ -13,8 +13,10 @@ its generation time on the edge leader's clock: the edge estimated the follower'
 offset, the cloud estimates the edge's, so offsets compose, and the age the cloud
 reports is the follower's generation to the cloud's delivery across both hops.
 
-Control flows down the same way: the cloud's entry for ``<site>.<follower>`` is handed
-to the edge leader as that follower's control, which it broadcasts with its polls.
+Control flows down the same way: the cloud's entry for ``<site>.<follower>``, on the
+site's own control key (``wiswarm/<cloud>/control/<site>``: no site hears another's),
+is handed to the edge leader as that follower's control, which it broadcasts with its
+polls.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ from collections.abc import Callable, Sequence
 import zenoh
 
 from wiswarm_zenoh.core import Delivered, FollowerConfig, Waypoint
+from wiswarm_zenoh.core.members import SITE_SEPARATOR
 from wiswarm_zenoh.transport.follower_node import FollowerNode
 from wiswarm_zenoh.transport.keys import check_name
 
@@ -37,14 +40,7 @@ SetControl = Callable[[str, Sequence[Sequence[float]]], None]
 
 def upstream_id(site: str, follower: str) -> str:
     """The follower's name in the parent swarm."""
-    return f"{check_name(site, 'site name')}.{follower}"
-
-
-def site_of(follower: str) -> str | None:
-    """The site of a follower named ``<site>.<follower>`` (see ``upstream_id``): a
-    leader's followers of one site share its link's p. None for a plain name."""
-    site, dot, _ = follower.partition(".")
-    return site if dot else None
+    return f"{check_name(site, 'site name')}{SITE_SEPARATOR}{follower}"
 
 
 class Upstream:

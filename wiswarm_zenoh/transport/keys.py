@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from wiswarm_zenoh.core.members import STREAM_SEPARATOR
+from wiswarm_zenoh.core.members import SITE_SEPARATOR, STREAM_SEPARATOR, site_of
 
 ROOT = "wiswarm"
 RESERVED = frozenset({"leader", "leaders", "control", "members"})
@@ -34,12 +34,16 @@ def check_follower(name: str) -> str:
 
 def check_robot(name: str) -> str:
     """A robot's id (``wiswarm follower --id``): a follower id without ``~``, which joins
-    a robot and its stream in a member's name."""
+    a robot and its stream in a member's name, nor ``.``, which joins a site and its
+    follower in a cloud's."""
     check_follower(name)
-    if STREAM_SEPARATOR in name:
-        raise ValueError(f"follower id {name!r} must not contain {STREAM_SEPARATOR}: it "
-                         f"joins a robot and its streams in a member's name "
-                         f"(<id>{STREAM_SEPARATOR}<stream>)")
+    for separator, joins in ((STREAM_SEPARATOR, f"a robot and its streams in a member's "
+                              f"name (<id>{STREAM_SEPARATOR}<stream>)"),
+                             (SITE_SEPARATOR, f"a site and its follower in a cloud's "
+                              f"(<site>{SITE_SEPARATOR}<id>)")):
+        if separator in name:
+            raise ValueError(f"follower id {name!r} must not contain {separator}: it joins "
+                             f"{joins}")
     return name
 
 
@@ -70,8 +74,24 @@ class SwarmKeys:
 
     @property
     def control(self) -> str:
-        """``wiswarm/<swarm>/control``: the leader's control information (msgpack)."""
+        """``wiswarm/<swarm>/control``: the leader's control information (msgpack) for
+        its followers of no site (every follower of a single swarm)."""
         return f"{self.prefix}/control"
+
+    def site_control(self, site: str | None) -> str:
+        """``wiswarm/<swarm>/control/<site>``: a cloud's control for that site's
+        followers only (``control`` for site None)."""
+        return self.control if site is None else \
+            f"{self.control}/{check_name(site, 'site name')}"
+
+    def control_of(self, member: str) -> str:
+        """Where the control for ``member`` goes: its site's key, or ``control``."""
+        return self.site_control(site_of(member))
+
+    @property
+    def all_site_controls(self) -> str:
+        """``wiswarm/<swarm>/control/*``: every site's control."""
+        return f"{self.control}/*"
 
     @property
     def members(self) -> str:

@@ -21,9 +21,9 @@ from functools import partial
 import zenoh
 
 from wiswarm_zenoh.core import Leader
+from wiswarm_zenoh.core.members import site_of
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.discovery import Discovery
-from wiswarm_zenoh.transport.edge import site_of
 from wiswarm_zenoh.transport.keys import SwarmKeys
 from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.notify import notify

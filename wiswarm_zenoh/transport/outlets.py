@@ -1,8 +1,8 @@
-"""Where the leader's output goes on Zenoh: each poll to its follower's querier with
-the control broadcast when due; each delivery to its follower's ``fresh`` key (while
-anyone listens), the delivery stream, a bridge and the application; unanswered polls
-to the delivery stream; bad input to the log with its key; a follower's silence and
-return to the log (a silence once it lasts: ``silence``)."""
+"""Where the leader's output goes on Zenoh: each poll to its follower's querier with the
+control broadcast when due (each site's on its own key); each delivery to its follower's
+``fresh`` key (while anyone listens), the delivery stream, a bridge and the application;
+unanswered polls to the delivery stream; bad input to the log with its key; a follower's
+silence and return to the log (a silence once it lasts: ``silence``)."""
 
 from __future__ import annotations
 
@@ -47,21 +47,31 @@ class Outlets:
         self._silence = SilenceLog(present)  # present: still polled, by a leader that runs
         self._bad_input, self._on_delivery, self._clock = bad_input, on_delivery, clock
         self.deliveries = DeliveryStream(session, keys)
-        self._control = session.declare_publisher(keys.control, express=True)
+        self._session = session
+        self._controls: dict[str | None, zenoh.Publisher] = {}  # by site, made when needed
         self.bridge: LeaderBridge | None = None
         self.steady: SteadyGets | None = None  # None: every poll on the callback path
 
     def send(self, request: PollRequest) -> SteadyGet | None:
         """Send a poll (and the control, when due); a steady one's get, to wait on."""
-        control = request.control
-        if control is not None:
-            self._control.put(control)
+        controls = request.controls
+        if controls is not None:
+            for site, control in controls.items():
+                self._control_publisher(site).put(control)
         link = self._links[request.follower]
         steady = self.steady
         if request.steady and steady is not None and not (steady.busy or steady.closed):
             return steady.send(link, request)
         link.poll(request.payload, request.poll_seq)
         return None
+
+    def _control_publisher(self, site: str | None) -> zenoh.Publisher:
+        publisher = self._controls.get(site)
+        if publisher is None:
+            publisher = self._session.declare_publisher(self._keys.site_control(site),
+                                                        express=True)
+            self._controls[site] = publisher
+        return publisher
 
     def hand_on(self, event: Event) -> None:
         match event:
@@ -92,4 +102,4 @@ class Outlets:
 
     def close(self) -> None:
         self.deliveries.close()
-        undeclare(self._control)
+        undeclare(*self._controls.values())
