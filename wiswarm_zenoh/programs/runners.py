@@ -32,6 +32,7 @@ from wiswarm_zenoh.programs.frames import (
     capture_time,
 )
 from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
+from wiswarm_zenoh.programs.router_reload import ReloadingRouter
 from wiswarm_zenoh.programs.router_watch import (
     STARTUP_GRACE,
     NoRouterReached,
@@ -193,18 +194,22 @@ def run_child(target: Callable[..., object], args: tuple[Any, ...],
 
 def run_router(spec: SessionSpec, stop: StopSignal, ready: ReadySignal | None = None,
                duration: float | None = None, log_verbosity: int | None = None) -> None:
-    """A Zenoh router (the session is opened in router mode) until stopped. With
-    ``log_verbosity`` (a ``wiswarm router`` process of its own), Zenoh's log is started
-    here, showing what access control refuses (see ``zenoh_log``): it takes over the
-    process's stdout, which only a process that is nothing but a router may do."""
+    """A Zenoh router (the session is opened in router mode) until stopped; opened again
+    when its config's files change (``router_reload``). With ``log_verbosity`` (a
+    ``wiswarm router`` process of its own), Zenoh's log is started here, showing what
+    access control refuses (see ``zenoh_log``): it takes over the process's stdout,
+    which only a process that is nothing but a router may do."""
     if log_verbosity is not None:
         init_zenoh_log(log_verbosity, denials=True)
-    with spec.open() as session:
-        log.info("router %s up, listening on %s", session.zid(), ", ".join(spec.listen) or
-                 "Zenoh's default (tcp/[::]:7447)")
+    router = ReloadingRouter(spec)
+    try:
+        log.info("router %s up, listening on %s", router.session.zid(),
+                 ", ".join(spec.listen) or "Zenoh's default (tcp/[::]:7447)")
         if ready is not None:
             ready.set()
-        wait_until_stopped(stop, duration)
+        wait_until_stopped(stop, duration, router.check)
+    finally:
+        router.close()
 
 
 @dataclass(frozen=True)
