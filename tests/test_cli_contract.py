@@ -79,7 +79,7 @@ STARTERS = (
     "wiswarm_zenoh.cli.sim.run_link", "wiswarm_zenoh.cli.sim.run_sweep",
     "wiswarm_zenoh.options.testbed.check_available", "wiswarm_zenoh.cli.experiment.run_study",
     "wiswarm_zenoh.cli.security.init", "wiswarm_zenoh.cli.security.add_follower",
-    "wiswarm_zenoh.cli.security.add_site",
+    "wiswarm_zenoh.cli.security.add_site", "wiswarm_zenoh.cli.security_revoke.revoke",
     "wiswarm_zenoh.cli.edge_cloud.run_edge_cloud", "wiswarm_zenoh.cli.dashboard.serve",
     "wiswarm_zenoh.cli.recording.run_recording",
     "wiswarm_apps.tracking.demo.run",

@@ -1,8 +1,12 @@
 """What the security tests share: a swarm directory, sessions opened from its configs,
-inboxes to wait on, and a barrier through the router."""
+inboxes to wait on, a barrier through the router, and ``wiswarm`` as a process."""
 
 from __future__ import annotations
 
+import os
+import socket
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -12,12 +16,50 @@ import zenoh
 
 from wiswarm_zenoh.security.acl import Roster
 from wiswarm_zenoh.security.deploy import Plan, init
+from wiswarm_zenoh.testbed.faults import Output
 from wiswarm_zenoh.transport import SessionSpec, SwarmKeys
+from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 WAIT = 15.0  # seconds: generous, since the machine may be busy; met in well under 1 s
 SWARM = "s"
 KEYS = SwarmKeys(SWARM)
 Permission = tuple[str, str, str]  # (message, flow, key expression)
+# The CLI with only the modules used here: a quicker start than all of them.
+ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes, security; "
+         "sys.exit(m.main(registrars=(nodes.register, security.register)))")
+
+
+def wiswarm(*argv: str) -> list[str]:
+    """``wiswarm ARGV`` as a command line."""
+    return [sys.executable, "-c", ENTRY, *argv]
+
+
+def router_process(config: Path) -> Output:
+    """``wiswarm -v router -c CONFIG``, its output kept (our INFO lines, Zenoh's at
+    warn): started, not yet waited for."""
+    return Output(config.stem, subprocess.Popen(
+        wiswarm("-v", "router", "-c", str(config)), stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True,
+        env={**os.environ, "RUST_LOG": "warn", "PYTHONUNBUFFERED": "1"}))
+
+
+def stop(process: Output) -> None:
+    process.popen.terminate()
+    process.popen.wait(WAIT)
+
+
+def free_ports(count: int) -> int:
+    """The first of ``count`` consecutive TCP ports on 127.0.0.1 free right now (a
+    place's routers listen on consecutive ports)."""
+    while True:
+        first = free_tcp_port()
+        try:
+            for port in range(first + 1, first + count):
+                with socket.socket() as sock:
+                    sock.bind(("127.0.0.1", port))
+        except OSError:
+            continue
+        return first
 
 
 def follower_permissions(keys: SwarmKeys, follower: str) -> set[Permission]:
@@ -40,6 +82,17 @@ def make_swarm(directory: Path, port: int, followers: tuple[str, ...] = ("f1", "
     init(directory, Plan(Roster(SWARM, "leader", followers, observers), listen=endpoint,
                          connect=endpoint, days=1))
     return directory
+
+
+def init_sites(out: Path, port: int, *more: str) -> Path:
+    """``wiswarm security init`` of a cloud (observer ground) and sites s1 (uav1, uav2)
+    and s2 (uav1) in ``out``, its first router on ``port``, ``more`` flags besides."""
+    from wiswarm_zenoh.cli.main import main
+
+    assert main(["security", "init", "--out", str(out), "--swarm", "cloud", "--port",
+                 str(port), "--site", "s1:uav1,uav2", "--site", "s2:uav1", "--observers",
+                 "ground", *more]) == 0
+    return out.resolve()
 
 
 class Sessions:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import datetime
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -20,15 +19,7 @@ from wiswarm_zenoh.testbed.faults import Output
 from wiswarm_zenoh.transport import SessionSpec
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
-from .helpers import WAIT
-
-# The CLI with only the modules used here: a quicker start than all of them.
-ENTRY = ("import sys; from wiswarm_zenoh.cli import main as m, nodes, security; "
-         "sys.exit(m.main(registrars=(nodes.register, security.register)))")
-
-
-def _wiswarm(*argv: str) -> list[str]:
-    return [sys.executable, "-c", ENTRY, *argv]
+from .helpers import WAIT, wiswarm
 
 
 @pytest.fixture
@@ -43,18 +34,18 @@ def swarm(tmp_path: Path) -> tuple[Path, int]:
 def test_a_secured_swarm_runs_from_the_command_line(swarm: tuple[Path, int]) -> None:
     directory, port = swarm
     # The default log level: the router shows what access control refused, and only that.
-    router = subprocess.Popen(_wiswarm("router", "-c", str(directory / "router.json5")),
+    router = subprocess.Popen(wiswarm("router", "-c", str(directory / "router.json5")),
                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     follower = None
     try:
         log = Output("router", router)
         log.wait_for("wiswarm router: listening")
         follower = subprocess.Popen(
-            _wiswarm("follower", "--id", "f1", "-c", str(directory / "f1.json5"),
+            wiswarm("follower", "--id", "f1", "-c", str(directory / "f1.json5"),
                      "--duration", "8"), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
             text=True)
         leader = subprocess.run(
-            _wiswarm("leader", "-c", str(directory / "leader.json5"), "--duration", "3"),
+            wiswarm("leader", "-c", str(directory / "leader.json5"), "--duration", "3"),
             capture_output=True, text=True, timeout=60)
         assert leader.returncode == 0, leader.stderr
         summary = leader.stdout.split("\nsummary\n")[1].splitlines()

@@ -22,6 +22,7 @@ from wiswarm_zenoh.security.deploy import Plan, SitePlan, init
 from wiswarm_zenoh.transport import FollowerNode, LeaderNode, SwarmKeys
 from wiswarm_zenoh.transport.edge import Upstream
 from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
+from wiswarm_zenoh.usage import UsageError
 
 from .helpers import WAIT, Inbox, Sessions, answer, replies, until
 
@@ -137,11 +138,14 @@ class Polled:
 
 
 def _as_site_2s_router(deployment: Deployment) -> zenoh.Session:
-    """A client of the cloud's router with site 2's router's certificate."""
-    config = _config(deployment.sessions.directory / "s2" / "leader.json5")
+    """A client of the cloud's router with site 2's router's certificate and password."""
+    site2 = deployment.sessions.directory / "s2"
+    config = _config(site2 / "leader.json5")
     tls = config["transport"]["link"]["tls"]
     for key in ("connect_certificate", "connect_private_key"):
         tls[key] = tls[key].replace("/leader", "/router")
+    login = _config(site2 / "router.json5")["transport"]["auth"]["usrpwd"]
+    config["transport"]["auth"]["usrpwd"] = {k: login[k] for k in ("user", "password")}
     config["connect"]["endpoints"] = [deployment.endpoint(None)]
     session = zenoh.open(zenoh.Config.from_json5(json.dumps(config)))
     deployment.sessions.opened.append(session)
@@ -154,26 +158,28 @@ def _config(path: Path) -> dict[str, Any]:
 
 def test_site_2s_certificates_never_answer_the_cloud_for_site_1(
         deployment: Deployment) -> None:
-    """Site 2's edge leader's certificate, at its own router, at the cloud's and at site
-    1's, and site 2's router's certificate at the cloud's (a stolen edge box): a
-    queryable on ``s1.uav1`` gets none of the cloud's polls."""
+    """Site 2's edge leader's certificate at its own router, and site 2's router's
+    certificate at the cloud's (a stolen edge box): a queryable on ``s1.uav1`` gets
+    none of the cloud's polls. At the cloud's router and at site 1's, the edge leader
+    is not even let in: their password files do not list it."""
     open_ = deployment.sessions.open
     at_site2 = open_("leader", "s2")
-    stolen = [at_site2, open_("leader", "s2", connect=(deployment.endpoint(None),)),
-              open_("leader", "s2", connect=(deployment.endpoint("s1"),)),
-              _as_site_2s_router(deployment)]
+    for elsewhere in (None, "s1"):
+        with pytest.raises(UsageError, match="no router answered"):
+            open_("leader", "s2", connect=(deployment.endpoint(elsewhere),))
+    stolen = [at_site2, _as_site_2s_router(deployment)]
     rogues = [Polled(session, KEYS.update("s1.uav1")) for session in stolen]
     # What site 2 may serve, declared after: once the cloud has its answer, the rogue
     # declarations before it (same links) were refused.
     acks = [answer(session, KEYS.update(f"s2.ack{i}"), b"ack")
-            for i, session in enumerate((at_site2, stolen[3]))]
+            for i, session in enumerate(stolen)]
     cloud, recorder = deployment.cloud_leader()
     with cloud:
         probe = deployment.sessions.open("leader")
         for i in range(len(acks)):
             until(f"ack {i}", lambda i=i: b"ack" in replies(probe, KEYS.update(f"s2.ack{i}"), 1.0))
         _delivered(recorder, ["s1.uav1"])
-        assert [rogue.count for rogue in rogues] == [0, 0, 0, 0]
+        assert [rogue.count for rogue in rogues] == [0, 0]
         assert cloud.bad_input.total() == 0  # no reply of theirs came
     for queryable in acks:
         queryable.undeclare()

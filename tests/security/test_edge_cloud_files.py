@@ -17,7 +17,7 @@ from wiswarm_zenoh.security.checks import check_identity
 from wiswarm_zenoh.security.deploy import load
 from wiswarm_zenoh.transport import SessionSpec, SwarmKeys
 
-from .helpers import follower_permissions, said_in_one_line
+from .helpers import follower_permissions, init_sites, said_in_one_line
 
 CLOUD, S1, S2 = SwarmKeys("cloud"), SwarmKeys("s1"), SwarmKeys("s2")
 PORT = 17447
@@ -39,11 +39,7 @@ def _allowed(router: Path, common_name: str) -> set[tuple[str, str, str]]:
 
 @pytest.fixture
 def pki_dir(tmp_path: Path) -> Path:
-    out = tmp_path / "pki"
-    assert main(["security", "init", "--out", str(out), "--swarm", "cloud", "--port",
-                 str(PORT), "--site", "s1:uav1,uav2", "--site", "s2:uav1", "--observers",
-                 "ground", "--site-hosts", "s2:10.0.0.2,site2.example"]) == 0
-    return out.resolve()
+    return init_sites(tmp_path / "pki", PORT, "--site-hosts", "s2:10.0.0.2,site2.example")
 
 
 def test_init_writes_the_cloud_at_the_top_and_each_site_in_its_directory(
@@ -135,7 +131,7 @@ def test_add_follower_and_add_site_rewrite_only_the_router_they_concern(
     (["--site", "s1:f1", "--site", "s1:f2"], "s1 given twice"),
     (["--swarm", "c", "--site", "c:f1"], "c given twice"),
     (["--site", "s1:f1", "--site-hosts", "s2:h2"], "--site-hosts s2: no such site"),
-    (["--site", "s1:router"], "router, leader, followers, observers"),
+    (["--site", "s1:router"], "routers, leader, followers, observers"),
     (["--site", "s1:f1", "--port", "65535"], "site k's router listens on PORT + k"),
 ])
 def test_bad_deployment_input_is_one_line_and_exit_2(

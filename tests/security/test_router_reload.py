@@ -10,7 +10,9 @@ import pytest
 
 from wiswarm_zenoh.programs.router_reload import TURN, FileWatch, ReloadingRouter, Turn
 from wiswarm_zenoh.security.deploy import add_follower
+from wiswarm_zenoh.security.revoke import revoke
 from wiswarm_zenoh.transport import SessionSpec
+from wiswarm_zenoh.usage import UsageError
 
 from .helpers import KEYS, Sessions, answer, replies, until
 
@@ -77,3 +79,14 @@ def test_a_router_takes_a_new_follower_and_runs_on_through_a_broken_config(
     assert _checked(router, caplog) == ["ERROR"] and "runs on as it was" in caplog.text
     assert router.session.zid() == second
     sessions.open("f2")  # still a router
+
+
+def test_a_revoked_nodes_session_ends_with_the_routers_old_one(
+        swarm: Path, sessions: Sessions, router: ReloadingRouter,
+        caplog: pytest.LogCaptureFixture) -> None:
+    f1 = sessions.open("f1")
+    revoke(swarm, "f1")
+    assert _checked(router, caplog) == ["INFO"] and "users.txt" in caplog.text
+    with pytest.raises(UsageError, match="no router answered"):
+        sessions.open("f1")
+    assert not list(f1.info.routers_zid())

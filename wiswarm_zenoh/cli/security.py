@@ -1,6 +1,7 @@
 """``wiswarm security init | add-follower | add-site``: a swarm, or a deployment of sites
-and a cloud, closed to all but its members, with Zenoh's mutual TLS and the routers'
-access control (see wiswarm_zenoh/security)."""
+and a cloud, closed to all but its members, with Zenoh's mutual TLS, passwords and the
+routers' access control (see wiswarm_zenoh/security); ``revoke`` and ``list`` in
+``security_revoke``."""
 
 from __future__ import annotations
 
@@ -9,6 +10,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TypeVar
 
+from wiswarm_zenoh.cli.security_directory import RELOADED, changed
+from wiswarm_zenoh.cli.security_revoke import register_revocation
 from wiswarm_zenoh.options import (
     LISTEN_ENDPOINT,
     ArgType,
@@ -24,18 +27,11 @@ from wiswarm_zenoh.options import (
 )
 from wiswarm_zenoh.security import configs
 from wiswarm_zenoh.security.acl import MAX_COMMON_NAME, Roster
-from wiswarm_zenoh.security.deploy import (
-    ROUTER_CONFIG,
-    Place,
-    Plan,
-    SitePlan,
-    add_follower,
-    add_site,
-    init,
-    load,
-    places,
-)
-from wiswarm_zenoh.security.hierarchy import check_site
+from wiswarm_zenoh.security.credentials import USERS
+from wiswarm_zenoh.security.deploy import add_follower, add_site, init
+from wiswarm_zenoh.security.hierarchy import MAX_ROUTERS, check_site
+from wiswarm_zenoh.security.places import Place, places
+from wiswarm_zenoh.security.plan import Plan, SitePlan, load
 
 DEFAULT_SWARM = "swarm"  # as `wiswarm leader|follower`, so that no --swarm is needed there
 MAX_PORT = 65535
@@ -74,11 +70,17 @@ def _followers(place: Place, followers: tuple[str, ...]) -> list[str]:
             for f in followers]
 
 
+def _routers(place: Place) -> list[str]:
+    """The commands that start ``place``'s routers."""
+    return [f"  wiswarm router -c {place.directory / router}.json5"
+            for router in place.roster.router_names]
+
+
 def _next_steps(place: Place) -> list[str]:
-    """The commands that start ``place``'s router and nodes."""
+    """The commands that start ``place``'s routers and nodes."""
     roster = place.roster
     upstream = "" if roster.upstream is None else f" --upstream {roster.upstream}"
-    return [f"  wiswarm router -c {place.directory / ROUTER_CONFIG}",
+    return [*_routers(place),
             f"  wiswarm leader{_flag(roster.swarm)}{upstream} -c "
             f"{place.directory / roster.leader}.json5", *_followers(place, roster.followers)]
 
@@ -89,10 +91,10 @@ def _sites(args: argparse.Namespace) -> tuple[SitePlan, ...]:
     unknown = sorted(set(hosts) - set(names))
     if unknown:
         raise UsageError(f"--site-hosts {unknown[0]}: no such site (give it with --site)")
-    if args.port + len(names) > MAX_PORT:
-        raise UsageError(f"--port {args.port}: site k's router listens on PORT + k, "
-                         f"at most {MAX_PORT}")
-    return tuple(SitePlan(name, followers, args.port + k, hosts.get(name, ()))
+    if args.port + (len(names) + 1) * args.routers - 1 > MAX_PORT:
+        raise UsageError(f"--port {args.port}: site k's router listens on PORT + k "
+                         f"(x --routers), its others after it, at most {MAX_PORT}")
+    return tuple(SitePlan(name, followers, args.port + k * args.routers, hosts.get(name, ()))
                  for k, (name, followers) in enumerate(args.site, start=1))
 
 
@@ -104,7 +106,8 @@ def _init(args: argparse.Namespace) -> int:
     try:
         ros2 = ros2_options(args)
         roster = Roster(args.swarm, args.leader, args.followers or (), args.observers,
-                        None if ros2 is None else (ros2.domain, ros2.namespace))
+                        None if ros2 is None else (ros2.domain, ros2.namespace),
+                        routers=args.routers)
         plan = Plan(roster, args.hosts, args.days,
                     tuple(args.listen) or (f"tls/0.0.0.0:{args.port}",),
                     tuple(configs.endpoints(args.hosts, args.port)), sites)
@@ -118,7 +121,7 @@ def _init(args: argparse.Namespace) -> int:
     found = places(directory, plan)
     steps = _next_steps(found[None])
     for site in sites:
-        steps += [f"  # site {site.name} (its router listens on port {site.port}):",
+        steps += [f"  # site {site.name} (its first router listens on port {site.port}):",
                   *_next_steps(found[site.name])]
     print("\n".join([f"start the {'deployment' if sites else 'swarm'} with:", *steps]))
     return 0
@@ -126,22 +129,21 @@ def _init(args: argparse.Namespace) -> int:
 
 def _changed(args: argparse.Namespace, change: Callable[[Path], object]) -> tuple[Path, Plan]:
     """Run ``change`` on the directory ``init`` wrote; its problems in one line."""
-    directory = args.out.resolve()
-    try:
-        change(directory)
-    except FileNotFoundError as exc:
-        raise UsageError(f"{exc.filename}: not found (run `wiswarm security init --out "
-                         f"{args.out}` first)") from None
-    except (ValueError, OSError, KeyError) as exc:
-        raise UsageError(f"{directory}: {exc}") from None
+    directory, _ = changed(args.out, change)
     return directory, load(directory)
+
+
+def _rewritten(place: Place) -> str:
+    """The files of ``place``'s routers that a change rewrites."""
+    return ", ".join(str(place.directory / name) for name in (
+        *(f"{router}.json5" for router in place.roster.router_names), USERS))
 
 
 def _add_follower(args: argparse.Namespace) -> int:
     directory, plan = _changed(args, lambda d: add_follower(d, args.follower, args.site))
     place = places(directory, plan)[args.site]
-    print(f"wiswarm security: follower {args.follower} added; restart the router "
-          f"({place.directory / ROUTER_CONFIG}) for its new rules, then start it with:")
+    print(f"wiswarm security: follower {args.follower} added; rewrote {_rewritten(place)}: "
+          f"{RELOADED}. Start it with:")
     print("\n".join(_followers(place, (args.follower,))))
     return 0
 
@@ -149,10 +151,11 @@ def _add_follower(args: argparse.Namespace) -> int:
 def _add_site(args: argparse.Namespace) -> int:
     name, followers = args.site
     directory, plan = _changed(args, lambda d: add_site(d, name, followers, args.hosts))
-    print(f"wiswarm security: site {name} added (its router listens on port "
-          f"{plan.site(name).port}); restart the cloud's router "
-          f"({directory / ROUTER_CONFIG}) for its new rules, then start the site with:")
-    print("\n".join(_next_steps(places(directory, plan)[name])))
+    found = places(directory, plan)
+    print(f"wiswarm security: site {name} added (its first router listens on port "
+          f"{plan.site(name).port}); rewrote {_rewritten(found[None])}: {RELOADED}. "
+          "Start the site with:")
+    print("\n".join(_next_steps(found[name])))
     return 0
 
 
@@ -191,6 +194,10 @@ def _add_init(commands: Any) -> None:
     start.add_argument("--listen", action="append", default=[], metavar="ENDPOINT",
                        type=LISTEN_ENDPOINT,
                        help="where the router listens (repeatable; default tls/0.0.0.0:PORT)")
+    start.add_argument("--routers", type=integer(1, MAX_ROUTERS), default=1,
+                       help="routers per place (the swarm's, the cloud's, each site's), each "
+                       "on the port after the last: nodes fail over between them, and they "
+                       "take a revocation one at a time (default 1)")
     start.add_argument("--days", type=integer(1, MAX_DAYS), default=365,
                        help=f"certificate lifetime in days, at most {MAX_DAYS} (default 365)")
     add_ros2_arguments(start, updates=False, what="let the leader run with --ros2: its "
@@ -226,3 +233,4 @@ def register(subparsers: Any) -> None:
                       help="the site's router's host names or addresses (default 127.0.0.1)")
     site.add_argument("site", type=SITE, metavar="SITE:F1,F2", help="the site and its followers")
     site.set_defaults(func=_add_site, needs="security")
+    register_revocation(commands)

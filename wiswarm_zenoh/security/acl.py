@@ -3,6 +3,7 @@ applies it): who belongs, and what each role may send and receive."""
 
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import Any
 
@@ -11,13 +12,13 @@ from wiswarm_zenoh.ros2 import default_namespace
 from wiswarm_zenoh.ros2.bridge import NODE_NAME
 from wiswarm_zenoh.ros2.graph import ADMIN_SPACE, check_domain, check_namespace, mangle
 from wiswarm_zenoh.security.hierarchy import (
-    ROUTER,
     check_site,
     cloud_groups,
+    router_names,
     site_common_name,
     site_groups,
 )
-from wiswarm_zenoh.security.rules import EGRESS, INGRESS, Group, Rule, rule, section
+from wiswarm_zenoh.security.rules import EGRESS, INGRESS, Group, Rule, relayed, rule, section
 from wiswarm_zenoh.transport.keys import ROOT, SwarmKeys, check_follower, check_name
 
 MAX_COMMON_NAME = 64  # characters: X.509's limit
@@ -26,7 +27,8 @@ MAX_COMMON_NAME = 64  # characters: X.509's limit
 @dataclass(frozen=True)
 class Roster:
     """Who belongs to the swarm. A site's swarm (named after the site) has the cloud's
-    swarm as ``upstream``; a cloud's has its ``sites`` (and no followers of its own)."""
+    swarm as ``upstream``; a cloud's has its ``sites`` (and no followers of its own).
+    Each place (the swarm, the cloud, each site) has ``routers`` routers."""
 
     swarm: str
     leader: str
@@ -35,6 +37,7 @@ class Roster:
     ros2: tuple[int, str | None] | None = None  # the leader's ROS 2 domain and namespace
     upstream: str | None = None
     sites: tuple[str, ...] = ()
+    routers: int = 1
 
     def __post_init__(self) -> None:
         SwarmKeys(self.swarm)
@@ -47,10 +50,13 @@ class Roster:
             check_follower(follower)
         for observer in self.observers:
             check_name(observer, "observer name")
-        names = [ROUTER, self.leader, *self.followers, *self.observers]
-        _once(names, "node names must differ (router, leader, followers, observers)")
+        names = [*router_names(self.routers), self.leader, *self.followers, *self.observers]
+        _once(names, "node names must differ (routers, leader, followers, observers)")
         self._check_links()
+        _once([*names, *self.sites], "site names must differ from the cloud's node names")
         for name in names:
+            if ":" in self.common_name(name):  # password files hold "name:password" lines
+                raise ValueError(f"name {self.common_name(name)!r} must not contain :")
             if len(self.common_name(name)) > MAX_COMMON_NAME:
                 raise ValueError(f"common name {self.common_name(name)!r} is over "
                                  f"{MAX_COMMON_NAME} characters: use shorter names")
@@ -76,8 +82,13 @@ class Roster:
 
     @property
     def nodes(self) -> tuple[str, ...]:
-        """Every node but the router, leader first."""
+        """Every node but the routers, leader first."""
         return (self.leader, *self.followers, *self.observers)
+
+    @property
+    def router_names(self) -> tuple[str, ...]:
+        """This place's routers."""
+        return router_names(self.routers)
 
 
 def _once(names: list[str], what: str) -> None:
@@ -175,15 +186,19 @@ def _observer_rules(swarm: str) -> tuple[Rule, ...]:
             rule("observers-see-tokens", ["liveliness_token"], EGRESS, tokens))
 
 
-def access_control(roster: Roster) -> dict[str, Any]:
-    """The ``access_control`` section of the router's config for ``roster`` (a site's
-    router or a cloud's: with the rules that join them, see ``hierarchy``)."""
+def access_control(roster: Roster, revoked: Collection[str] = ()) -> dict[str, Any]:
+    """The ``access_control`` section of the routers' config for ``roster`` (a site's
+    routers or a cloud's: with the rules that join them, see ``hierarchy``), with no
+    subject for the ``revoked`` common names."""
     leader = roster.common_name(roster.leader)
-    groups = [Group("leader", (leader,), tuple(_leader_rules(roster))),
+    routers = roster.router_names  # each trusts the others of its place (``relayed``)
+    siblings = tuple(map(roster.common_name, routers)) if len(routers) > 1 else ()
+    groups = [Group("routers", siblings, relayed("routers"), routers=True),
+              Group("leader", (leader,), tuple(_leader_rules(roster))),
               *_follower_groups(roster),
               Group("observers", tuple(map(roster.common_name, roster.observers)),
                     _observer_rules(roster.swarm)),
-              *cloud_groups(roster.swarm, roster.sites)]
+              *cloud_groups(roster.swarm, roster.sites, roster.routers)]
     if roster.upstream is not None:
-        groups += site_groups(roster.upstream, roster.swarm, leader)
-    return section(groups)
+        groups += site_groups(roster.upstream, roster.swarm, leader, roster.routers)
+    return section(groups, revoked)

@@ -23,7 +23,15 @@ from collections.abc import Sequence
 from wiswarm_zenoh.security.rules import INGRESS, Group, Rule, other, rule
 from wiswarm_zenoh.transport.keys import SwarmKeys, check_name
 
-ROUTER = "router"  # every router's name; the cloud's is also its common name
+ROUTER = "router"  # every place's first router's name; the cloud's is also its common name
+MAX_ROUTERS = 3  # routers per place: one reloads at a time (``programs.router_reload``)
+
+
+def router_names(count: int) -> tuple[str, ...]:
+    """The names of a place's ``count`` routers: ``router``, ``router2``, ..."""
+    if not 1 <= count <= MAX_ROUTERS:
+        raise ValueError(f"routers per place must be 1 to {MAX_ROUTERS}, got {count}")
+    return (ROUTER, *(f"{ROUTER}{k}" for k in range(2, count + 1)))
 
 
 def check_site(site: str) -> str:
@@ -56,14 +64,16 @@ def _serving(group: str, cloud: str, site: str, inward: str) -> tuple[Rule, ...]
     )
 
 
-def cloud_groups(cloud: str, sites: Sequence[str]) -> list[Group]:
-    """On the cloud's router: each site's router, for its own site's pairs."""
-    return [Group(f"site-{site}", (site_common_name(site, ROUTER),),
-                  _serving(f"site-{site}", cloud, site, INGRESS)) for site in sites]
+def cloud_groups(cloud: str, sites: Sequence[str], routers: int = 1) -> list[Group]:
+    """On the cloud's routers: each site's routers, for their own site's pairs."""
+    return [Group(f"site-{site}", tuple(site_common_name(site, r) for r in router_names(routers)),
+                  _serving(f"site-{site}", cloud, site, INGRESS), routers=True)
+            for site in sites]
 
 
-def site_groups(cloud: str, site: str, leader: str) -> list[Group]:
-    """On ``site``'s router: its edge leader (common name ``leader``) serving the cloud,
-    and the cloud's router, which polls it and sends the cloud's control down."""
+def site_groups(cloud: str, site: str, leader: str, routers: int = 1) -> list[Group]:
+    """On ``site``'s routers: its edge leader (common name ``leader``) serving the cloud,
+    and the cloud's routers, which poll it and send the cloud's control down."""
     return [Group("edge", (leader,), _serving("edge", cloud, site, INGRESS)),
-            Group("cloud", (ROUTER,), _serving("cloud", cloud, site, other(INGRESS)))]
+            Group("cloud", router_names(routers), _serving("cloud", cloud, site, other(INGRESS)),
+                  routers=True)]

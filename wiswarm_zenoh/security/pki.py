@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import datetime
 import ipaddress
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,6 +19,7 @@ from cryptography.hazmat.primitives.asymmetric import ec
 from cryptography.x509.oid import ExtendedKeyUsageOID, NameOID
 
 from wiswarm_zenoh.security.configs import CA_CERT, CA_KEY
+from wiswarm_zenoh.security.credentials import write_private
 
 LOCAL_NAMES = ("localhost", "127.0.0.1")
 SKEW = datetime.timedelta(minutes=5)  # certificates start a little early: clocks differ
@@ -104,12 +104,9 @@ def write_pair(directory: Path, stem: str, cert: x509.Certificate,
     """``<stem>.pem`` and ``<stem>-key.pem``; the key is readable by its owner only."""
     cert_path, key_path = directory / f"{stem}.pem", directory / f"{stem}-key.pem"
     cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-    descriptor = os.open(key_path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(descriptor, "wb") as file:
-        file.write(key.private_bytes(serialization.Encoding.PEM,
-                                     serialization.PrivateFormat.PKCS8,
-                                     serialization.NoEncryption()))
-    os.chmod(key_path, 0o600)  # an existing file keeps its mode through os.open
+    write_private(key_path, key.private_bytes(serialization.Encoding.PEM,
+                                              serialization.PrivateFormat.PKCS8,
+                                              serialization.NoEncryption()))
     return cert_path.resolve(), key_path.resolve()
 
 

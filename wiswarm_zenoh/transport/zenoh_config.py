@@ -216,7 +216,8 @@ def _insert(config: zenoh.Config, key: str, value: str, origin: str) -> None:
 # How often a node tries its router again once the link is gone: from 100 ms, doubling
 # to at most 500 ms (Zenoh's own default: 1 s to 4 s), so a restarted router is rejoined
 # within about half a second of listening again. A config file's own setting wins.
-RECONNECT = "{period_init_ms: 100, period_max_ms: 500, period_increase_factor: 2}"
+RETRY = {"period_init_ms": 100, "period_max_ms": 500, "period_increase_factor": 2}
+RECONNECT = json.dumps(RETRY)
 SHARED_MEMORY = "transport/shared_memory/enabled"
 
 
