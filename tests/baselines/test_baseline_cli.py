@@ -14,7 +14,7 @@ import pytest
 
 from wiswarm_zenoh.cli import main as cli_main
 from wiswarm_zenoh.cli import nodes
-from wiswarm_zenoh.programs.runners import DeliveryRecord
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
 

@@ -33,8 +33,8 @@ from wiswarm_zenoh.baselines import fifo as fifo_module
 from wiswarm_zenoh.baselines.stamp import LENGTH, STAMP, encode_frame, sender_id
 from wiswarm_zenoh.baselines.tally import FollowerTally
 from wiswarm_zenoh.core import AoITracker
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.programs.demo import Children
-from wiswarm_zenoh.programs.runners import DeliveryRecord
 from wiswarm_zenoh.programs.ticker import Ticker
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 

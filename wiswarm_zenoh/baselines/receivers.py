@@ -33,7 +33,7 @@ from wiswarm_zenoh.baselines.stamp import (
 )
 from wiswarm_zenoh.baselines.tally import FollowerTally
 from wiswarm_zenoh.core import AoITracker, WireError
-from wiswarm_zenoh.programs.runners import DeliveryRecord
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.discovery import Discovery
 from wiswarm_zenoh.transport.entities import undeclare

@@ -29,10 +29,10 @@ from wiswarm_zenoh.baselines.stamp import (
     sender_id,
     udp_frame_limit,
 )
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.programs.frames import FRAME_BYTES, FRAME_HEADER_BYTES, SyntheticFrames
 from wiswarm_zenoh.programs.router_watch import NoRouterReached, RouterWatch, RouterWatches
 from wiswarm_zenoh.programs.runners import (
-    DeliveryRecord,
     ReadySignal,
     StopSignal,
     deadline_of,

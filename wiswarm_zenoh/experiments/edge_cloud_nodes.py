@@ -20,9 +20,9 @@ from dataclasses import dataclass
 from wiswarm_zenoh.core import Delivered, LeaderConfig
 from wiswarm_zenoh.core.config import InFlight
 from wiswarm_zenoh.experiments.edge_cloud_topology import RelaySpec
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.programs.frames import capture_time
 from wiswarm_zenoh.programs.runners import (
-    DeliveryRecord,
     ReadySignal,
     StopSignal,
     wait_until_stopped,

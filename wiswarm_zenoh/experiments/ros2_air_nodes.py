@@ -23,8 +23,8 @@ from functools import partial
 from typing import Any
 
 from wiswarm_zenoh.experiments.edge_cloud_nodes import Progress
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.programs.runners import (
-    DeliveryRecord,
     ReadySignal,
     StopSignal,
     wait_until_stopped,

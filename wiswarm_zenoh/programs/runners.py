@@ -7,7 +7,6 @@ is over, on Ctrl-C, or when the process that started it is gone (nothing is orph
 from __future__ import annotations
 
 import contextlib
-import csv
 import json
 import logging
 import multiprocessing
@@ -25,11 +24,11 @@ import zenoh
 from wiswarm_zenoh.api.follower import Follower
 from wiswarm_zenoh.api.leader import Leader
 from wiswarm_zenoh.core import Delivered, FollowerConfig, LeaderConfig
+from wiswarm_zenoh.programs.delivery_csv import DeliveryRecord
 from wiswarm_zenoh.programs.frames import (
     FRAME_BYTES,
     FRAME_RATE,
     SyntheticFrames,
-    capture_time,
 )
 from wiswarm_zenoh.programs.process_exit import exit_without_finalizing
 from wiswarm_zenoh.programs.router_reload import ReloadingRouter
@@ -282,39 +281,6 @@ def run_followers(spec: SessionSpec, options: Sequence[FollowerOptions], stop: S
                      "frames" if synthetic is not None else "samples", node.polls)
     if not reached:
         raise NoRouterReached
-
-
-class DeliveryRecord:
-    """Every delivery as a CSV row (follower, update_seq, generated_at, delivered_at,
-    bytes; leader clock): the exact AoI sawtooth, for plots.
-
-    With ``capture_stamps`` the generation time is the one synthetic frames carry
-    (``capture_time``) instead of the leader's estimate: ground truth where every node
-    shares one clock (the testbed), so polling and push are measured alike."""
-
-    FIELDS = ("follower", "update_seq", "generated_at", "delivered_at", "bytes")
-
-    def __init__(self, path: str, capture_stamps: bool = False) -> None:
-        # Line-buffered: a leader killed mid-run (a fault the testbed injects) keeps its rows.
-        self._file = open(path, "w", newline="", buffering=1)  # noqa: SIM115 - see close()
-        self._writer = csv.writer(self._file)
-        self._writer.writerow(self.FIELDS)
-        self._capture_stamps = capture_stamps
-
-    def __call__(self, event: Delivered) -> None:
-        generated_at = capture_time(event.payload) if self._capture_stamps else \
-            event.generated_at
-        self.row(event.follower, event.update_seq, generated_at, event.delivered_at,
-                 len(event.payload))
-
-    def row(self, follower: str, update_seq: int, generated_at: float, delivered_at: float,
-            size: int) -> None:
-        """One delivery from plain values (a receiver that is not the polling leader)."""
-        self._writer.writerow((follower, update_seq, f"{generated_at:.6f}",
-                               f"{delivered_at:.6f}", size))
-
-    def close(self) -> None:
-        self._file.close()
 
 
 @dataclass(frozen=True)
