@@ -23,8 +23,9 @@ UPDATE_ADAPTER = ArgType("choice", _adapter_name)  # by name, as the application
 LEADER_HELP = ("also be a ROS 2 participant over rmw_zenoh: each delivered "
                "update on <ns>/<follower>/update (as --ros-updates says), or, from a "
                "follower serving a ROS 2 topic (--ros2-topic), as its own type on "
-               "<ns>/<follower>/<topic>; the followers' stats on /diagnostics; a "
-               "nav_msgs/msg/Path on <ns>/<follower>/waypoints sets that follower's waypoints "
+               "<ns>/<robot>/<topic>; the followers' stats on /diagnostics; a "
+               "nav_msgs/msg/Path on <ns>/<follower>/waypoints sets that follower's waypoints, "
+               "a std_msgs/msg/Float64 on <ns>/<follower>/weight its weight "
                "(ROS 2 nodes need RMW_IMPLEMENTATION=rmw_zenoh_cpp and this router)")
 
 
