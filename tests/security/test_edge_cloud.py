@@ -265,3 +265,34 @@ def test_a_standby_edge_leader_takes_over_serving_the_cloud(deployment: Deployme
                 part.close()
         _delivered(recorder, ["s1.uav1", "s1.uav2"], 5)
         assert standby[0].active and sorted(standby[1].followers) == ["s1.uav1", "s1.uav2"]
+
+
+def test_a_site_hears_nothing_of_another_sites_control(deployment: Deployment) -> None:
+    """The cloud's waypoints for site 1 go on ``control/s1``, which no rule lets reach
+    site 2: site 2's edge leader and follower, subscribed to every control key they can
+    name, get none of them, while site 1's follower obeys its own and site 2's control
+    flows to both."""
+    cloud_keys = (KEYS.control, KEYS.site_control("s1"), KEYS.all_site_controls,
+                  KEYS.everything, "**")
+    edge, robot = deployment.sessions.open("leader", "s2"), deployment.sessions.open("uav1", "s2")
+    spies = [Inbox(session, key) for session in (edge, robot)
+             for key in (*cloud_keys, "wiswarm/s1/**")]
+    # Each session's own control, subscribed after the spies (same link): once it flows,
+    # the router had taken or refused every spy's subscription.
+    witnesses = [Inbox(edge, KEYS.site_control("s2")), Inbox(robot, SwarmKeys("s2").control)]
+    cloud, recorder = deployment.cloud_leader()
+    with cloud:
+        _delivered(recorder, PAIRS)
+        ours, theirs = [(5.0, 6.0, 7.0, 8.0)], [(1.0, 1.0, 1.0, 1.0)]
+        cloud.set_control("s1.uav1", theirs)
+        cloud.set_control("s2.uav1", ours)
+        with deployment.told:
+            assert deployment.told.wait_for(lambda: ("s1.uav1", theirs) in deployment.obeyed
+                                            and ("s2.uav1", ours) in deployment.obeyed, WAIT)
+        for witness in witnesses:  # a few repeats more of the control (every 0.1 s)
+            with witness.cond:
+                heard = len(witness.payloads)
+                assert witness.cond.wait_for(lambda w=witness, n=heard: len(w.payloads) >= n + 3,
+                                             WAIT)
+    leaked = [p for spy in spies for p in spy.payloads if b"s1.uav1" in p]
+    assert leaked == []

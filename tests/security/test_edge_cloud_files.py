@@ -80,8 +80,8 @@ def test_each_router_lets_a_site_serve_the_cloud_for_its_own_pairs_only(
                ("reply", "ingress", f"{CLOUD.prefix}/s1.$*/update"),
                ("query", "egress", f"{CLOUD.prefix}/s1.$*/update"),
                ("liveliness_token", "ingress", f"{CLOUD.prefix}/members/s1.$*"),
-               ("declare_subscriber", "ingress", CLOUD.control),
-               ("put", "egress", CLOUD.control)}
+               ("declare_subscriber", "ingress", CLOUD.site_control("s1")),
+               ("put", "egress", CLOUD.site_control("s1"))}  # site 1's control only
     # The cloud's router knows site 1 by its router's certificate only.
     assert _allowed(cloud_router, "s1/router") == serving
     for stranger in ("s1/leader", "s1/uav1", "s2/leader", "uav1"):

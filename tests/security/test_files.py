@@ -75,8 +75,9 @@ def test_the_rules_give_each_role_what_it_needs_and_no_more(swarm: Path) -> None
     assert {f for m, f, _ in observer if m in ("put", "liveliness_token")} == {"egress"}
     leader = _allowed(_rules_of(router, "leader"))
     assert {k for m, f, k in leader if (m, f) == ("put", "ingress")} == {
-        KEYS.control, KEYS.all_stats, KEYS.leader_stats, KEYS.all_fresh,
-        f"{KEYS.prefix}/leader/deliveries", KEYS.all_weights}  # weights: its side's tools
+        KEYS.control, KEYS.all_site_controls, KEYS.all_stats, KEYS.leader_stats,
+        KEYS.all_fresh, f"{KEYS.prefix}/leader/deliveries",
+        KEYS.all_weights}  # weights: its side's tools; control/<site>: a cloud's
     assert ("liveliness_token", "ingress", KEYS.leaders) in leader
     # a standby follows the active leader: it may hear control and stats, not put stats
     assert ("declare_subscriber", "ingress", KEYS.control) in leader

@@ -118,8 +118,9 @@ def _ros2_rules(swarm: str, domain: int, namespace: str | None) -> list[Rule]:
 
 def _leader_rules(roster: Roster) -> list[Rule]:
     keys = SwarmKeys(roster.swarm)
-    published = [keys.control, keys.all_stats, keys.leader_stats, keys.all_fresh,
-                 keys.leader_deliveries]
+    # A cloud leader's control goes to each site on a key of its own (control/<site>).
+    published = [keys.control, keys.all_site_controls, keys.all_stats, keys.leader_stats,
+                 keys.all_fresh, keys.leader_deliveries]
     updates = f"{keys.prefix}/*/update"
     rules = [
         rule("leader-publishes", ["put"], INGRESS, published),
@@ -135,9 +136,9 @@ def _leader_rules(roster: Roster) -> list[Rule]:
         rule("leader-gets-weights", ["put"], EGRESS, [keys.all_weights]),
         # A standby follows the active leader's control and stats, to take over from them.
         rule("leader-follows-leader", ["declare_subscriber"], INGRESS,
-             [keys.control, keys.all_stats, keys.leader_stats]),
-        rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_stats,
-                                                      keys.leader_stats]),
+             [keys.control, keys.all_site_controls, keys.all_stats, keys.leader_stats]),
+        rule("leader-hears-leader", ["put"], EGRESS, [keys.control, keys.all_site_controls,
+                                                      keys.all_stats, keys.leader_stats]),
         rule("leader-sees-tokens", ["liveliness_token"], EGRESS,
              [keys.members, keys.leaders, keys.all_sources]),
         # Who listens and who answers, so that its publishers' matching status and its

@@ -5,7 +5,8 @@ and its edge leader answers the cloud leader's polls for the site's followers, n
 A router knows everything that comes through another router by that router's
 certificate alone. So the cloud's router gives each site's router what that site's edge
 leader may do upstream and no more: serve the pairs ``<site>.*`` (queryables, replies,
-members' tokens) and hear the polls for them and the cloud's control. The site's router
+members' tokens) and hear the polls for them and the cloud's control for the site, on
+its own key (``wiswarm/<cloud>/control/<site>``). The site's router
 gives its edge leader the same, and the cloud's router the mirror of it. Another site,
 its router or its edge leader's certificate can thus never answer for this site's pairs
 at either router; nor can a site's followers reach anything of the cloud's swarm.
@@ -59,8 +60,10 @@ def _serving(group: str, cloud: str, site: str, inward: str) -> tuple[Rule, ...]
         rule(f"{group}-is-polled", ["query"], outward, [pairs]),
         rule(f"{group}-members", ["liveliness_token"], inward,
              [f"{keys.prefix}/members/{site}.$*"]),
-        rule(f"{group}-subscribes-control", ["declare_subscriber"], inward, [keys.control]),
-        rule(f"{group}-gets-control", ["put"], outward, [keys.control]),
+        # The site's own control key only: no site hears another's waypoints.
+        rule(f"{group}-subscribes-control", ["declare_subscriber"], inward,
+             [keys.site_control(site)]),
+        rule(f"{group}-gets-control", ["put"], outward, [keys.site_control(site)]),
     )
 
 
