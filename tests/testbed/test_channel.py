@@ -28,7 +28,7 @@ from wiswarm_zenoh.testbed import (
     remove_channel,
     unavailable_reason,
 )
-from wiswarm_zenoh.testbed.channel import STATE_DIR
+from wiswarm_zenoh.testbed.channel_records import STATE_DIR
 from wiswarm_zenoh.testbed.netns import entered
 
 T = TypeVar("T")

@@ -16,7 +16,7 @@ import pytest
 
 from wiswarm_zenoh.cli import main as cli
 from wiswarm_zenoh.experiments.edge_cloud_topology import RECORDS, cleanup_leftovers
-from wiswarm_zenoh.testbed.channel import list_channels
+from wiswarm_zenoh.testbed.channel_records import list_channels
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 
 pytestmark = pytest.mark.testbed

@@ -20,7 +20,8 @@ from wiswarm_zenoh.programs.frames import FRAME_BYTES
 from wiswarm_zenoh.testbed.ns3_build import unavailable_reason
 from wiswarm_zenoh.testbed.ownership import namespace_exists, process_start
 from wiswarm_zenoh.testbed.run import RunSpec, measure
-from wiswarm_zenoh.testbed.wifi import WifiMedium, cleanup_leftovers, list_media
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_records import cleanup_leftovers, list_media
 from wiswarm_zenoh.testbed.wifi_spec import MediumFailed, WifiSpec
 
 NS3_MISSING = unavailable_reason()

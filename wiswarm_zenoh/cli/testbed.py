@@ -28,11 +28,12 @@ from wiswarm_zenoh.testbed import (
     list_channels,
     remove_channel,
 )
-from wiswarm_zenoh.testbed.channel import STATE_DIR
+from wiswarm_zenoh.testbed.channel_records import STATE_DIR
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT
 from wiswarm_zenoh.testbed.ns3_build import Ns3Unavailable
 from wiswarm_zenoh.testbed.ownership import locked
-from wiswarm_zenoh.testbed.wifi import WifiMedium, list_media, remove_medium
+from wiswarm_zenoh.testbed.wifi import WifiMedium
+from wiswarm_zenoh.testbed.wifi_records import list_media, remove_medium
 from wiswarm_zenoh.testbed.wifi_spec import MediumStats, WifiSpec
 from wiswarm_zenoh.units import format_rate
 

@@ -29,7 +29,8 @@ import os
 from dataclasses import dataclass
 from types import TracebackType
 
-from wiswarm_zenoh.testbed.channel import STATE_DIR, Channel, remove_channel
+from wiswarm_zenoh.testbed.channel import Channel
+from wiswarm_zenoh.testbed.channel_records import STATE_DIR, remove_channel
 from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.nodes import NO_SHARED_MEMORY, ROUTER_PORT, Placement
 from wiswarm_zenoh.testbed.ownership import locked, namespace_exists, process_start

@@ -5,8 +5,8 @@ shape without root (``UserChannel``: a relay on loopback with one token bucket a
 per direction).
 """
 
-from wiswarm_zenoh.testbed.channel import (
-    Channel,
+from wiswarm_zenoh.testbed.channel import Channel
+from wiswarm_zenoh.testbed.channel_records import (
     cleanup_leftovers,
     list_channels,
     remove_channel,

@@ -16,21 +16,28 @@ channels made by ``wiswarm testbed up`` are persistent and kept until ``down``.
 from __future__ import annotations
 
 import itertools
-import json
 import logging
 import os
 import re
-from dataclasses import asdict, dataclass, replace
-from pathlib import Path
+from dataclasses import dataclass, replace
 from types import TracebackType
 
+from wiswarm_zenoh.testbed.channel_records import (
+    FOLLOWER_IF,
+    LEADER_IF,
+    STATE_DIR,
+    ChannelRecord,
+    cleanup_locked,
+    list_channels,
+    namespaces,
+    record_path,
+    remove_locked,
+)
 from wiswarm_zenoh.testbed.flows import Flow, tcp_flows
-from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.ownership import (
     locked,
     namespace_exists,
     process_start,
-    remove_orphans,
 )
 from wiswarm_zenoh.testbed.spec import (
     DEFAULT_SPEC,
@@ -59,52 +66,9 @@ from wiswarm_zenoh.units import MAX_RATE_BPS, MIN_RATE_BPS, format_rate
 
 log = logging.getLogger(__name__)
 
-NS_PREFIX = "wsw-"
-LEADER_SUFFIX = "-L"
-FOLLOWER_SUFFIX = "-F"
-# Each end lives in its own namespace from creation on, so fixed names never collide.
-LEADER_IF = "wsw-L"
-FOLLOWER_IF = "wsw-F"
-STATE_DIR = Path("/run/wiswarm-testbed")
 SUBNETS = range(1, 255)  # channel k: leader 10.201.k.1, follower 10.201.k.2 (/24)
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,23}$")
 _counter = itertools.count()
-
-
-
-@dataclass(frozen=True)
-class _Record:
-    """What ``/run/wiswarm-testbed/<run_id>.json`` keeps: owner, addresses, spec as set."""
-
-    run_id: str
-    owner_pid: int  # 0 for a persistent channel
-    owner_start: int  # the owner's start time (clock ticks), against pid reuse
-    subnet: int
-    spec: ChannelSpec
-
-    @property
-    def persistent(self) -> bool:
-        return self.owner_pid == 0
-
-    def save(self) -> None:
-        data = {"run_id": self.run_id, "owner_pid": self.owner_pid,
-                "owner_start": self.owner_start, "persistent": self.persistent,
-                "subnet": self.subnet, "spec": asdict(self.spec)}
-        path = _record_path(self.run_id)
-        temporary = path.with_suffix(".tmp")
-        temporary.write_text(json.dumps(data, indent=1) + "\n")
-        os.replace(temporary, path)
-
-    @classmethod
-    def load(cls, run_id: str) -> _Record | None:
-        """The record, or None if missing or unreadable (the channel is then unowned)."""
-        try:
-            data = json.loads(_record_path(run_id).read_text())
-            return cls(run_id, int(data["owner_pid"]), int(data["owner_start"]),
-                       int(data["subnet"]), ChannelSpec(**data["spec"]))
-        except (OSError, ValueError, KeyError, TypeError) as exc:
-            log.debug("no usable record of testbed channel %s: %s", run_id, exc)
-            return None
 
 
 @dataclass(frozen=True)
@@ -116,79 +80,8 @@ class _Cap:
     flows: list[Flow]
 
 
-def _record_path(run_id: str) -> Path:
-    return STATE_DIR / f"{run_id}.json"
-
-
-def _namespaces(run_id: str) -> tuple[str, str]:
-    return f"{NS_PREFIX}{run_id}{LEADER_SUFFIX}", f"{NS_PREFIX}{run_id}{FOLLOWER_SUFFIX}"
-
-
 def _addresses(subnet: int) -> tuple[str, str]:
     return f"10.201.{subnet}.1", f"10.201.{subnet}.2"
-
-
-def _links(ns: str) -> set[str]:
-    return {link["ifname"] for link in run_json("ip", "-n", ns, "-j", "link", "show")}
-
-
-def _owned_by_live_process(record: _Record) -> bool:
-    return record.persistent or process_start(record.owner_pid) == record.owner_start
-
-
-def list_channels() -> list[str]:
-    """Run ids of every channel present (either namespace ``wsw-<id>-L``/``-F``)."""
-    try:
-        names = os.listdir(NETNS_DIR)
-    except FileNotFoundError:
-        return []
-    least = len(NS_PREFIX) + len(LEADER_SUFFIX)
-    return sorted({name[len(NS_PREFIX):-len(LEADER_SUFFIX)] for name in names
-                   if name.startswith(NS_PREFIX) and len(name) > least
-                   and name.endswith((LEADER_SUFFIX, FOLLOWER_SUFFIX))})
-
-
-def _remove_locked(run_id: str) -> bool:
-    """Remove the veth (both ends, with their qdiscs), the namespaces and the record, and
-    verify; True if there was a channel to remove."""
-    pairs = tuple(zip(_namespaces(run_id), (LEADER_IF, FOLLOWER_IF), strict=True))
-    present = [(ns, ifname) for ns, ifname in pairs if namespace_exists(ns)]
-    for ns, ifname in present:
-        if ifname in _links(ns):
-            run("ip", "-n", ns, "link", "del", "dev", ifname)  # takes its peer along
-    for ns, ifname in present:
-        if ifname in _links(ns):
-            raise RuntimeError(f"{ifname} is still in namespace {ns} after deleting it")
-        run("ip", "netns", "del", ns)
-    left = [ns for ns, _ in pairs if namespace_exists(ns)]
-    if left:
-        raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
-    _record_path(run_id).unlink(missing_ok=True)
-    return bool(present)
-
-
-def remove_channel(run_id: str) -> None:
-    """Remove channel ``run_id`` whoever made it; LookupError if there is none."""
-    with locked(STATE_DIR):
-        if not _remove_locked(run_id):
-            raise LookupError(f"no testbed channel {run_id!r}")
-    log.info("removed testbed channel %s", run_id)
-
-
-def _cleanup_locked() -> list[str]:
-    present = set(list_channels())
-    recorded = {path.stem for path in STATE_DIR.glob("*.json")}
-    for run_id in sorted(recorded - present):
-        _record_path(run_id).unlink(missing_ok=True)  # removed behind its owner's back
-    return remove_orphans("testbed channel", sorted(present), _Record.load,
-                          _owned_by_live_process, lambda record: record.owner_pid,
-                          lambda run_id, _: _remove_locked(run_id))
-
-
-def cleanup_leftovers() -> list[str]:
-    """Remove channels whose creating process is gone; returns their run ids."""
-    with locked(STATE_DIR):
-        return _cleanup_locked()
 
 
 class Channel:
@@ -224,7 +117,7 @@ class Channel:
 
     def _place(self, run_id: str, subnet: int) -> None:
         self.run_id = run_id
-        self.leader_ns, self.follower_ns = _namespaces(run_id)
+        self.leader_ns, self.follower_ns = namespaces(run_id)
         self.leader_addr, self.follower_addr = _addresses(subnet)
 
     def build(self, *, persistent: bool = False) -> Channel:
@@ -238,12 +131,12 @@ class Channel:
             return self
         check_available()
         with locked(STATE_DIR):
-            _cleanup_locked()
+            cleanup_locked()
             run_id = self._name or self._fresh_id()
             if self._name is not None and (run_id in list_channels()
-                                           or _record_path(run_id).exists()):
+                                           or record_path(run_id).exists()):
                 raise ValueError(f"a testbed channel named {run_id!r} exists already")
-            used = {record.subnet for record in map(_Record.load, list_channels())
+            used = {record.subnet for record in map(ChannelRecord.load, list_channels())
                     if record is not None}
             subnet = next((k for k in SUBNETS if k not in used), None)
             if subnet is None:
@@ -253,12 +146,12 @@ class Channel:
             self.persistent = persistent
             owner = 0 if persistent else os.getpid()
             start = 0 if persistent else process_start(owner)
-            _Record(run_id, owner, start or 0, subnet, self.spec).save()
+            ChannelRecord(run_id, owner, start or 0, subnet, self.spec).save()
             self.persistent, self.owner_pid = persistent, owner
             try:
                 self._create()
             except BaseException:
-                _remove_locked(run_id)
+                remove_locked(run_id)
                 raise
         self._built = True
         log.info("testbed channel %s up: %s up, %s down, queue %g ms", self.run_id,
@@ -271,7 +164,7 @@ class Channel:
         taken = set(list_channels())
         while True:
             run_id = f"{os.getpid():x}-{next(_counter)}"
-            if run_id not in taken and not _record_path(run_id).exists():
+            if run_id not in taken and not record_path(run_id).exists():
                 return run_id
 
     def _create(self) -> None:
@@ -298,7 +191,7 @@ class Channel:
         if not self._built:
             return
         with locked(STATE_DIR):
-            _remove_locked(self.run_id)
+            remove_locked(self.run_id)
         self._built = False
         log.info("testbed channel %s removed", self.run_id)
 
@@ -321,7 +214,7 @@ class Channel:
             set_queue(self.follower_ns, FOLLOWER_IF, UNCAPPED, spec.limit_bytes(spec.rate_bps))
         self.spec = spec
         with locked(STATE_DIR):
-            record = _Record.load(self.run_id)
+            record = ChannelRecord.load(self.run_id)
             if record is not None:
                 replace(record, spec=spec).save()
         log.info("testbed channel %s: rate now %s up, %s down", self.run_id,
@@ -415,10 +308,10 @@ class Channel:
     def attach(cls, run_id: str) -> Channel:
         """The present channel ``run_id`` (made by any process), its spec read from tc;
         LookupError if it does not exist. Closing it removes the channel."""
-        leader_ns, follower_ns = _namespaces(run_id)
+        leader_ns, follower_ns = namespaces(run_id)
         if not (namespace_exists(leader_ns) and namespace_exists(follower_ns)):
             raise LookupError(f"no testbed channel {run_id!r}")
-        record = _Record.load(run_id)
+        record = ChannelRecord.load(run_id)
         up, down = tbf_qdisc(follower_ns, FOLLOWER_IF), tbf_qdisc(leader_ns, LEADER_IF)
         channel = cls(spec_from_tc(up["options"], down["options"],
                                     None if record is None else record.spec))
@@ -426,7 +319,7 @@ class Channel:
             channel._place(run_id, record.subnet)
             channel.persistent, channel.owner_pid = record.persistent, record.owner_pid
         else:
-            channel.run_id, channel.leader_ns, channel.follower_ns = run_id, *_namespaces(run_id)
+            channel.run_id, channel.leader_ns, channel.follower_ns = run_id, *namespaces(run_id)
             channel.leader_addr = _address(leader_ns, LEADER_IF)
             channel.follower_addr = _address(follower_ns, FOLLOWER_IF)
             channel.owner_pid = None

@@ -12,9 +12,7 @@ lines to a stats file. A lag beyond the limit ends the scenario: ``check`` then 
 A station's data rate can be lowered at run time (``set_station_rate``: a command on the
 scenario's stdin, answered on its stdout).
 
-Records live under ``/run/wiswarm-testbed/wifi`` (not beside the tbf channels' records,
-which ``channel`` prunes), naming the owning process and the scenario's, so the next
-build removes a medium whose owner died (SIGKILL) and stops its scenario.
+Its records, and the removal of media whose owner died: ``wifi_records``.
 """
 
 from __future__ import annotations
@@ -26,138 +24,40 @@ import logging
 import os
 import re
 import select
-import signal
 import subprocess
 from dataclasses import asdict, replace
 from pathlib import Path
 from types import TracebackType
 from typing import IO, Any
 
-from wiswarm_zenoh.testbed.channel import STATE_DIR
-from wiswarm_zenoh.testbed.netns import NETNS_DIR
 from wiswarm_zenoh.testbed.ns3_build import scenario_binary
 from wiswarm_zenoh.testbed.ownership import (
     locked,
     namespace_exists,
     process_start,
-    remove_orphans,
 )
 from wiswarm_zenoh.testbed.spec import MTU, check_available
 from wiswarm_zenoh.testbed.tc import run
+from wiswarm_zenoh.testbed.wifi_records import (
+    NS_PREFIX,
+    RECORDS,
+    STOP_TIMEOUT,
+    cleanup_locked,
+    list_media,
+    load_record,
+    ns_name,
+    record_paths,
+    remove_locked,
+    save_record,
+)
 from wiswarm_zenoh.testbed.wifi_spec import MediumFailed, MediumStats, WifiSpec
 
 log = logging.getLogger(__name__)
 
-RECORDS = STATE_DIR / "wifi"
-NS_PREFIX = "wsw28-"  # not "wsw-": the tbf channels' cleanup owns that prefix
 TAP = "wsw28-wifi"
 SUBNETS = range(1, 255)  # medium k: AP 10.203.k.1, station i 10.203.k.(i + 1)
-STOP_TIMEOUT = 5.0
 DEFAULT_SPEC = WifiSpec()
 _counter = itertools.count()
-
-
-def _ns(run_id: str, node: int) -> str:
-    return f"{NS_PREFIX}{run_id}-{'ap' if node == 0 else f's{node}'}"
-
-
-def _paths(run_id: str) -> tuple[Path, Path, Path]:
-    """Record, stats lines, scenario's stderr."""
-    return (RECORDS / f"{run_id}.json", RECORDS / f"{run_id}.stats",
-            RECORDS / f"{run_id}.log")
-
-
-def _load(run_id: str) -> dict[str, Any] | None:
-    try:
-        data: dict[str, Any] = json.loads(_paths(run_id)[0].read_text())
-        return data
-    except (OSError, ValueError) as exc:
-        log.debug("no usable record of WiFi medium %s: %s", run_id, exc)
-        return None
-
-
-def _save(record: dict[str, Any]) -> None:
-    path = _paths(str(record["run_id"]))[0]
-    temporary = path.with_suffix(".tmp")
-    temporary.write_text(json.dumps(record, indent=1) + "\n")
-    os.replace(temporary, path)
-
-
-def list_media() -> list[str]:
-    """Run ids of every medium present (its access point's namespace)."""
-    try:
-        names = os.listdir(NETNS_DIR)
-    except FileNotFoundError:
-        return []
-    return sorted(name[len(NS_PREFIX):-len("-ap")] for name in names
-                  if name.startswith(NS_PREFIX) and name.endswith("-ap"))
-
-
-def _stop_scenario(record: dict[str, Any]) -> None:
-    """SIGTERM the scenario if it is still the process the record names, then SIGKILL."""
-    pid, start = int(record.get("scenario_pid", 0)), record.get("scenario_start")
-    if pid <= 0 or process_start(pid) != start:
-        return
-    try:
-        handle = os.pidfd_open(pid)  # readable once the process has ended
-    except ProcessLookupError:
-        return  # it ended meanwhile
-    try:
-        os.kill(pid, signal.SIGTERM)
-        if not select.select([handle], [], [], STOP_TIMEOUT)[0]:
-            os.kill(pid, signal.SIGKILL)
-    finally:
-        os.close(handle)
-
-
-def _remove_locked(run_id: str, record: dict[str, Any] | None) -> bool:
-    if record is not None:
-        _stop_scenario(record)
-    present = [ns for ns in (f"{NS_PREFIX}{run_id}-{name}" for name in _node_names(run_id))
-               if namespace_exists(ns)]
-    for ns in present:
-        run("ip", "netns", "del", ns)  # takes its tap along
-    left = [ns for ns in present if namespace_exists(ns)]
-    if left:
-        raise RuntimeError(f"network namespaces {', '.join(left)} are still present")
-    for path in _paths(run_id):
-        path.unlink(missing_ok=True)
-    return bool(present)
-
-
-def _node_names(run_id: str) -> list[str]:
-    prefix = f"{NS_PREFIX}{run_id}-"
-    try:
-        names = os.listdir(NETNS_DIR)
-    except FileNotFoundError:
-        return []
-    return [name[len(prefix):] for name in names if name.startswith(prefix)
-            and (name[len(prefix):] == "ap" or name[len(prefix):].lstrip("s").isdigit())]
-
-
-def _owned(record: dict[str, Any]) -> bool:
-    return (int(record["owner_pid"]) == 0
-            or process_start(int(record["owner_pid"])) == record["owner_start"])
-
-
-def _cleanup_locked() -> list[str]:
-    recorded = {path.stem for path in RECORDS.glob("*.json")}
-    return remove_orphans("WiFi medium", sorted(set(list_media()) | recorded), _load, _owned,
-                          lambda record: int(record["owner_pid"]), _remove_locked)
-
-
-def cleanup_leftovers() -> list[str]:
-    """Remove media whose creating process is gone (and stop their scenarios)."""
-    with locked(RECORDS):
-        return _cleanup_locked()
-
-
-def remove_medium(run_id: str) -> None:
-    """Remove medium ``run_id`` whoever made it; LookupError if there is none."""
-    with locked(RECORDS):
-        if not _remove_locked(run_id, _load(run_id)):
-            raise LookupError(f"no WiFi medium {run_id!r}")
-    log.info("removed WiFi medium %s", run_id)
 
 
 class WifiMedium:
@@ -185,7 +85,7 @@ class WifiMedium:
     @property
     def leader_ns(self) -> str:
         """The access point's namespace: router and leader (or receiver) live there."""
-        return _ns(self.run_id, 0)
+        return ns_name(self.run_id, 0)
 
     @property
     def leader_addr(self) -> str:
@@ -194,7 +94,7 @@ class WifiMedium:
     @property
     def station_namespaces(self) -> list[str]:
         """One namespace per station, follower i (0-based) in the (i + 1)-th."""
-        return [_ns(self.run_id, i) for i in range(1, self.spec.stations + 1)]
+        return [ns_name(self.run_id, i) for i in range(1, self.spec.stations + 1)]
 
     def address(self, node: int) -> str:
         return f"10.203.{self.subnet}.{node + 1}"
@@ -206,11 +106,11 @@ class WifiMedium:
         check_available()
         binary = scenario_binary()
         with locked(RECORDS):
-            _cleanup_locked()
+            cleanup_locked()
             self.run_id = self._name or self._fresh_id()
-            if self.run_id in list_media() or _paths(self.run_id)[0].exists():
+            if self.run_id in list_media() or record_paths(self.run_id)[0].exists():
                 raise ValueError(f"a WiFi medium named {self.run_id!r} exists already")
-            used = {int(r["subnet"]) for r in map(_load, list_media()) if r is not None}
+            used = {int(r["subnet"]) for r in map(load_record, list_media()) if r is not None}
             subnet = next((k for k in SUBNETS if k not in used), None)
             if subnet is None:
                 raise RuntimeError("every WiFi medium subnet is in use: remove media with "
@@ -221,12 +121,12 @@ class WifiMedium:
                             "owner_start": process_start(owner) if owner else 0,
                             "subnet": subnet, "spec": asdict(self.spec),
                             "scenario_pid": 0, "scenario_start": None}
-            _save(self._record)
+            save_record(self._record)
             try:
                 self._create()
                 self._start(binary)
             except BaseException:
-                _remove_locked(self.run_id, self._record)
+                remove_locked(self.run_id, self._record)
                 raise
         self._built = True
         log.info("WiFi medium %s up: %d stations, %s, hard lag limit %g ms", self.run_id,
@@ -238,12 +138,12 @@ class WifiMedium:
         taken = set(list_media())
         while True:
             run_id = f"{os.getpid():x}-{next(_counter)}"
-            if run_id not in taken and not _paths(run_id)[0].exists():
+            if run_id not in taken and not record_paths(run_id)[0].exists():
                 return run_id
 
     def _create(self) -> None:
         for node in range(self.spec.stations + 1):
-            ns = _ns(self.run_id, node)
+            ns = ns_name(self.run_id, node)
             run("ip", "netns", "add", ns)
             run("ip", "-n", ns, "tuntap", "add", "dev", TAP, "mode", "tap")
             # One MTU-sized packet per skb (as on the tbf channel), no IPv6 chatter.
@@ -253,8 +153,8 @@ class WifiMedium:
             run("ip", "-n", ns, "link", "set", "dev", "lo", "up")
 
     def _start(self, binary: Path) -> None:
-        _, stats, errors = _paths(self.run_id)
-        namespaces = [_ns(self.run_id, node) for node in range(self.spec.stations + 1)]
+        _, stats, errors = record_paths(self.run_id)
+        namespaces = [ns_name(self.run_id, node) for node in range(self.spec.stations + 1)]
         argv = [str(binary), f"--stations={self.spec.stations}",
                 f"--standard={self.spec.standard}", f"--namespaces={','.join(namespaces)}",
                 f"--tap={TAP}", f"--hardLimitMs={self.spec.hard_limit_ms:g}",
@@ -267,7 +167,7 @@ class WifiMedium:
         self._scenario = scenario
         self._record.update(scenario_pid=scenario.pid,
                             scenario_start=process_start(scenario.pid))
-        _save(self._record)
+        save_record(self._record)
         assert scenario.stdin is not None and scenario.stdout is not None
         addresses = self._expect(scenario.stdout, "addresses")
         for ns, mac in zip(namespaces, addresses["macs"], strict=True):
@@ -327,20 +227,20 @@ class WifiMedium:
 
     def _stderr_tail(self) -> str:
         with contextlib.suppress(OSError):
-            text = _paths(self.run_id)[2].read_text().strip()
+            text = record_paths(self.run_id)[2].read_text().strip()
             return text[-500:] or "no message"
         return "no message"
 
     @property
     def scenario_process(self) -> tuple[int, int | None]:
         """The ns-3 scenario's pid and start time (clock ticks), as recorded."""
-        record = _load(self.run_id) or self._record
+        record = load_record(self.run_id) or self._record
         return int(record["scenario_pid"]), record["scenario_start"]
 
     def stats(self) -> MediumStats:
         """The scenario's last counters (cumulative since it started)."""
         last = None
-        with contextlib.suppress(OSError), _paths(self.run_id)[1].open() as lines:
+        with contextlib.suppress(OSError), record_paths(self.run_id)[1].open() as lines:
             for line in lines:
                 last = line
         if last is None:
@@ -351,7 +251,7 @@ class WifiMedium:
 
     def check(self) -> None:
         """MediumFailed if the scenario has ended (lag beyond the hard limit, a crash)."""
-        record = _load(self.run_id) or {}
+        record = load_record(self.run_id) or {}
         pid = int(record.get("scenario_pid", 0))
         if self._scenario is not None and self._scenario.poll() is None:
             return
@@ -383,7 +283,7 @@ class WifiMedium:
                     except subprocess.TimeoutExpired:
                         scenario.kill()
         with locked(RECORDS):
-            _remove_locked(self.run_id, _load(self.run_id))
+            remove_locked(self.run_id, load_record(self.run_id))
         self._built = False
         log.info("WiFi medium %s removed", self.run_id)
 
@@ -407,8 +307,8 @@ class WifiMedium:
     @classmethod
     def attach(cls, run_id: str) -> WifiMedium:
         """The present medium ``run_id`` (made by any process); LookupError if none."""
-        record = _load(run_id)
-        if record is None or not namespace_exists(_ns(run_id, 0)):
+        record = load_record(run_id)
+        if record is None or not namespace_exists(ns_name(run_id, 0)):
             raise LookupError(f"no WiFi medium {run_id!r}")
         medium = cls(WifiSpec(**record["spec"]))
         medium.run_id, medium.subnet = run_id, int(record["subnet"])
