@@ -197,3 +197,62 @@ def test_a_dead_follower_that_rejoins_is_polled_at_once_with_the_p_it_had() -> N
     assert t <= rejoined + 0.002  # at once (its age is the larger), not up to 8 s on
     followers["dead"].offer(b"back", t)
     assert any(isinstance(e, Delivered) for e in answer(leader, followers, request, t))
+
+
+def _nobody_there(leader: Leader, start: float, until: float) -> float:
+    """Every poll from ``start`` to ``until`` ends at once, as a get with no queryable
+    does while the followers' process is gone; the time reached."""
+    t = start
+    while t < until:
+        request = poll(leader, t)
+        leader.receive_end(request.follower, request.poll_seq, t + 0.001)
+        t = request.deadline
+        on_timer(leader, t)
+    return t
+
+
+def test_followers_gone_together_do_not_back_off_on_probes_sent_before_they_were_due() -> None:
+    """With every follower silent, each is polled on before its probe is due, and with
+    nobody there each poll ends in milliseconds. The back-off grew on each of them, to
+    ``probe_max`` within 40 ms, so of two followers restarted together, the one that
+    answered second waited 8 s for its next probe (a testbed run's killed followers
+    process). It grows once per back-off, as when the others answer."""
+    config = LeaderConfig(window=2, timeout=0.1, probe_interval=0.5, probe_max=8.0,
+                          adaptive_timeout=False)
+    leader, followers = _setup("a", "b", config=config)
+    t = 0.0
+    for _ in range(2):
+        exchange(leader, followers, t)
+        t += 0.002
+    gone = t
+    t = _nobody_there(leader, t, 1.0)
+    assert leader.stats("a", t).p_hat == leader.stats("b", t).p_hat == 0.0
+    assert leader.stats("a", t).polls + leader.stats("b", t).polls > 100  # polled on
+    back = t  # both processes are up again; "a" is probed first and answers
+    b_polls = []
+    while t < back + 2.0:
+        request = poll(leader, t)
+        if request.follower == "b":
+            b_polls.append(t)
+        followers[request.follower].offer(b"x", t)
+        answer(leader, followers, request, t)
+        t += 0.002
+    # its probes backed off with the time it was gone (0.5 s, then 1 s), not per poll
+    assert b_polls and b_polls[0] - back <= back - gone
+
+
+def test_a_silent_member_whose_token_came_back_is_probed_at_once() -> None:
+    """Its token went and came back within the shell's grace (a router failover, or a
+    process restarted that fast): it is up, so a back-off grown while it was away does
+    not keep it unpolled; its estimates stay as they were."""
+    config = LeaderConfig(window=5, timeout=0.1, probe_interval=0.5, probe_max=8.0,
+                          adaptive_timeout=False)
+    leader, followers, t = _answered_once(config)
+    dead_polls, t = _run_with_a_dead_follower(leader, followers, 20.0, start=t)
+    assert dead_polls[-1] - dead_polls[-2] == pytest.approx(8.0 + 0.1)  # backed off fully
+    assert poll(leader, t).follower == "a"  # its probe is seconds away
+    on_timer(leader, t + 1.0)
+    t += 1.0
+    leader.follower_reachable("dead")
+    assert poll(leader, t).follower == "dead"
+    assert leader.stats("dead", t).p_hat == 0.0  # still silent until it answers

@@ -145,6 +145,14 @@ class Leader:
         self._pick = None
         self._control.drop(follower)
 
+    def follower_reachable(self, follower: str) -> None:
+        """A member's token went and came back within the shell's grace (so it never
+        left): it is up now; if silent, it is probed at once."""
+        peer = self.table.peers.get(follower)
+        if peer is not None:
+            peer.reachable()
+            self._pick = None
+
     def forget_follower(self, follower: str) -> None:
         """Drop the record of a follower that left (the shell decides how long to keep
         showing its age)."""

@@ -107,7 +107,7 @@ class Peer:
         it, and teach how slow the link is: ``late_reply``)."""
         self.timed_out.append((poll_seq, sent_at))
         was_silent = self.silent
-        self._record(False, now)
+        self._record(False, now, early=sent_at < self.probe_at)
         self.timeouts += 1
         events: list[Event] = [TimedOut(self.follower, poll_seq)]
         if self.silent and not was_silent:
@@ -174,6 +174,14 @@ class Peer:
         self.want = "fresh"
         self._changed()
 
+    def reachable(self) -> None:
+        """It is up (its token came back within the leave's grace: a router failover, or
+        a process restarted that fast): if silent, it is probed at once, not when a
+        back-off grown while it was away ends. Its estimates stay."""
+        if self.silent:
+            self.probe_gap, self.probe_at = 0.0, -math.inf
+            self._changed()
+
     def stats(self, now: float, refused_before: int = 0, present: bool = True) -> FollowerStats:
         """Its figures at ``now``: its age grows after it left, its mean, p95 and peak
         are those of its time present; ``refused_before`` counts among its errors."""
@@ -192,13 +200,19 @@ class Peer:
     def _changed(self) -> None:
         self.on_change(self)
 
-    def _record(self, answered: bool, now: float) -> None:
-        """Count a poll's outcome; a silent follower's next probe backs off exponentially."""
+    def _record(self, answered: bool, now: float, early: bool = False) -> None:
+        """Count a poll's outcome; a silent follower's next probe backs off exponentially,
+        once per back-off: a probe sent before it was due (``early``: every follower was
+        silent, so it was polled anyway) does not grow it. Those end at once while no
+        queryable is there: a swarm's followers restarting together backed off to
+        ``probe_max`` within milliseconds, and the last to come back waited that long."""
         if not answered:
             self.timing.timed_out(silent=self.silent)
         self.reliability.record(answered)
         if self.reliability.value > 0.0:
             self.probe_gap, self.probe_at = 0.0, -math.inf
+            return
+        if early:
             return
         self.probe_gap = self.probe_interval if self.probe_gap == 0.0 \
             else min(2 * self.probe_gap, self.probe_max)

@@ -4,7 +4,8 @@ which asks again for what Zenoh's first answer missed), and a link to each.
 A token's coming and going is posted on Zenoh's thread, as a command to the poll
 thread's inbox, and applied there, so the core changes only there. A follower whose
 token goes and stays away ``LEAVE_GRACE`` (a router failover brings it back over the
-other router within milliseconds: no leave, no join, its estimates as they were) is
+other router within milliseconds: no leave, no join, its estimates as they were, and
+probed at once if it fell silent meanwhile: its token says it is up) is
 polled no more, but its link stays open for ``forget_after`` seconds so
 that its stats go on, its age growing (``present`` false): a site cut off upstream is
 not reported fresh. Back within that time it is taken up where it was; after it,
@@ -90,6 +91,7 @@ class Membership:
                 if joined:  # back within the grace: it never left (a router failover)
                     log.info("follower %s's token went and came back within %.0f ms (a "
                              "router failover?): still a member", follower, LEAVE_GRACE * 1e3)
+                    self._post(partial(self._leader.follower_reachable, follower))
                     return
             if not joined:
                 timer = threading.Timer(LEAVE_GRACE, self._left, (follower,))
