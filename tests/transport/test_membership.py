@@ -6,6 +6,8 @@ import logging
 import multiprocessing
 import os
 import signal
+import threading
+from typing import NoReturn
 
 import pytest
 import zenoh
@@ -148,3 +150,28 @@ def test_a_follower_that_left_ages_in_its_stats_then_is_forgotten(
         recorder.wait("second leave", lambda r: r.leaves == ["uav1", "uav1"])
         eventually("forgotten", lambda: "uav1 forgotten" in caplog.text)
         eventually("out of the stats", lambda: not leader.latest)
+
+
+class _BridgeThatFails:
+    """A ``BridgeOptions`` whose bridge cannot open (its ROS 2 side is missing, say)."""
+
+    def open(self, session: zenoh.Session, swarm: str, control: object) -> NoReturn:
+        raise KeyboardInterrupt  # as Ctrl-C or SIGTERM in the middle of the leader's start
+
+
+def test_a_leader_stopped_while_it_starts_leaves_nothing_behind(
+    sessions: Sessions, router: zenoh.Session, port: int
+) -> None:
+    """What it declared before the stop is undeclared at once, before the caller closes
+    the session (which raised ``Already borrowed`` under a leader half made): no leader
+    token stays to hold off the next one, no poll thread runs."""
+    session = sessions.node(port)
+    watcher = sessions.node(port)
+    with pytest.raises(KeyboardInterrupt):
+        LeaderNode(session, SWARM, bridge=_BridgeThatFails())
+    assert not [t for t in threading.enumerate() if t.name.startswith(f"leader-{SWARM}/")]
+    eventually("the leader token undeclared",
+               lambda: not list(watcher.liveliness().get(f"wiswarm/{SWARM}/leaders/**")))
+    session.close()
+    with LeaderNode(sessions.node(port), SWARM) as leader:  # the next one leads
+        eventually("the next leader active", lambda: leader.active)

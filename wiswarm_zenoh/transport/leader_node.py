@@ -20,7 +20,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
-from contextlib import AbstractContextManager
+from contextlib import AbstractContextManager, ExitStack
 from functools import partial
 from typing import TypeVar
 
@@ -100,26 +100,44 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         self._stopping = False  # ``_stop`` as a plain flag, read on every poll
         self.bad_input = BadInputLog(log)
         put = self._inbox.put
-        self._membership = Membership(session, self.keys, self._leader, clock, put, self._reply,
-                                      self._end, self.bad_input, forget_after, on_join, on_leave)
-        self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
-        self._role_news = True  # the election may have changed its verdict: look
-        self._role = LeaderRole(session, self.keys, self.name, self._leader,
-                                self._role_changed, on_role)
-        self._stats = StatsRounds(session, self.keys, stats_period, clock(), self.config.policy,
-                                  self.name, every_record or bridge is not None)
-        self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
-                                on_delivery, clock, lambda f: not self._stop.is_set() and
-                                f in self._membership.followers)
-        self._steady = self._outlets.steady = SteadyGets(self._leader, self._reply, self._end)
-        self.bridge = self._outlets.bridge = \
-            None if bridge is None else bridge.open(session, swarm, self)
-        self._weights = WeightSettings(session, self.keys, self.set_weight, self.bad_input)
-        self._lock = threading.Lock()  # the core's: held by the poll thread feeding it
-        self._threads = [threading.Thread(target=self._run, name=f"leader-{swarm}/{i + 1}",
-                                          daemon=True) for i in range(POLL_THREADS)]
-        for thread in self._threads:
-            thread.start()
+        # What is built is closed in reverse order, by ``close``, or here at once if the
+        # building stops (an error, or Ctrl-C / SIGTERM while the leader starts): its
+        # threads would otherwise poll on while the caller closes the session under them.
+        self._closing = closing = ExitStack()
+        try:
+            self._membership = Membership(session, self.keys, self._leader, clock, put,
+                                          self._reply, self._end, self.bad_input, forget_after,
+                                          on_join, on_leave)
+            closing.callback(self._membership.close)
+            self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
+            self._role_news = True  # the election may have changed its verdict: look
+            self._role = LeaderRole(session, self.keys, self.name, self._leader,
+                                    self._role_changed, on_role)
+            closing.callback(self._role.close)
+            self._stats = StatsRounds(session, self.keys, stats_period, clock(),
+                                      self.config.policy, self.name,
+                                      every_record or bridge is not None)
+            closing.callback(self._stats.close)
+            self._outlets = Outlets(session, self.keys, self._membership.links, self.bad_input,
+                                    on_delivery, clock, lambda f: not self._stop.is_set() and
+                                    f in self._membership.followers)
+            closing.callback(self._outlets.close)
+            self._steady = self._outlets.steady = SteadyGets(self._leader, self._reply, self._end)
+            self.bridge = self._outlets.bridge = \
+                None if bridge is None else bridge.open(session, swarm, self)
+            if self.bridge is not None:
+                closing.callback(self.bridge.close)
+            self._weights = WeightSettings(session, self.keys, self.set_weight, self.bad_input)
+            closing.callback(self._weights.close)
+            self._lock = threading.Lock()  # the core's: held by the poll thread feeding it
+            self._threads = [threading.Thread(target=self._run, name=f"leader-{swarm}/{i + 1}",
+                                              daemon=True) for i in range(POLL_THREADS)]
+            closing.callback(self._stop_polling)  # first, once they may run
+            for thread in self._threads:
+                thread.start()
+        except BaseException:
+            closing.close()
+            raise
 
     # --- for the application (any thread) ---
 
@@ -194,20 +212,17 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
     def close(self) -> None:
         """Stop polling (waits for the poll in flight) and undeclare everything."""
+        self._closing.close()
+
+    def _stop_polling(self) -> None:
         self._stop.set()
         self._stopping = True
         self._inbox.put(None)
         with self._lock:
             self._steady.close()  # lets go of a get a poll thread waits on
         for thread in self._threads:
-            thread.join()
-        if self.bridge is not None:
-            self.bridge.close()
-        self._weights.close()
-        self._role.close()
-        self._membership.close()
-        self._outlets.close()
-        self._stats.close()
+            if thread.ident is not None:  # (not if its start was interrupted)
+                thread.join()
 
     def __exit__(self, *exc: object) -> None:
         self.close()
