@@ -54,8 +54,8 @@ from bench_revoke import WINDOW, HeldSession, Prober, deliveries, gap_spanning, 
 from wiswarm_zenoh.experiments.edge_cloud_run import (
     EdgeCloudConfig,
     Setup,
-    _start_links,
     measure_setup,
+    start_links,
 )
 from wiswarm_zenoh.experiments.edge_cloud_secure import CLOUD, Specs
 from wiswarm_zenoh.experiments.edge_cloud_topology import EdgeCloud
@@ -193,7 +193,7 @@ def trial(config: EdgeCloudConfig, k: int, warmup: float, window: float) -> dict
         pki, records = Path(tmp) / "pki", Path(tmp) / "records"
         records.mkdir()
         specs = Specs(net, config.ids, pki)
-        link_names = _start_links(links, net, specs)
+        link_names = start_links(links, net, specs)
         paths = {"cloud": records / f"{setup.tag}-cloud.csv",
                  **{s: records / f"{setup.tag}-edge-{s}.csv" for s in sites}}
         receivers: dict[str, Connection] = {}

@@ -46,6 +46,17 @@ def test_a_newer_frame_replaces_the_one_waiting_and_an_older_one_never_does() ->
     assert (slot.offered, slot.replaced, slot.refused, slot.sent) == (6, 2, 2, 2)
 
 
+def test_a_source_stamp_one_nanosecond_older_is_refused() -> None:
+    """An epoch time in ns is 238 ns coarse as seconds in a float: by the float alone the
+    older sample looked as new and replaced the one waiting (a ROS 2 source's)."""
+    slot: NewestSlot[str] = NewestSlot()
+    stamp = 1_795_873_152_642_000_123
+    assert (stamp - 1) / 1e9 == stamp / 1e9  # what the float cannot tell apart
+    assert slot.offer("newest", stamp / 1e9, stamp)
+    assert not slot.offer("1 ns older", (stamp - 1) / 1e9, stamp - 1)
+    assert slot.take() == ("newest", stamp / 1e9, 1)
+
+
 def test_the_pump_sends_the_newest_frame_once_the_send_before_completed() -> None:
     """While frame 1's send blocks, frames 2 to 5 come: 5 alone goes next, numbered 2."""
     sent: list[tuple[str, float, int]] = []

@@ -36,22 +36,26 @@ class NewestSlot(Generic[P]):
     def __init__(self) -> None:
         self.offered = self.replaced = self.refused = self.sent = 0
         self._waiting: tuple[P, float] | None = None
-        self._newest = -math.inf
+        self._newest: float = -math.inf  # the order of the newest frame offered
 
     @property
     def waiting(self) -> bool:
         return self._waiting is not None
 
-    def offer(self, payload: P, generated_at: float) -> bool:
+    def offer(self, payload: P, generated_at: float, stamp: int | None = None) -> bool:
         """Hold ``payload``, generated at ``generated_at``, in place of the frame waiting;
-        False (refused) if it is older than a frame offered before."""
+        False (refused) if it is older than a frame offered before. ``stamp``: the source's
+        own integer time, which orders the frames instead when given: an epoch time in ns
+        as a float in seconds is 238 ns coarse, and a sample 1 ns older than the one
+        waiting replaced it."""
         self.offered += 1
-        if generated_at < self._newest:
+        order = generated_at if stamp is None else stamp
+        if order < self._newest:
             self.refused += 1
             return False
         if self._waiting is not None:
             self.replaced += 1
-        self._waiting, self._newest = (payload, generated_at), generated_at
+        self._waiting, self._newest = (payload, generated_at), order
         return True
 
     def take(self) -> tuple[P, float, int] | None:
@@ -79,12 +83,13 @@ class NewestPump(FramePump[P]):
         self._closed = False
         super().__init__(name, send, release)
 
-    def offer(self, payload: P, generated_at: float | None = None) -> bool:
+    def offer(self, payload: P, generated_at: float | None = None,
+              stamp: int | None = None) -> bool:
         """Hold ``payload`` (generated now, unless told) for the next send; False if it is
-        older than a frame offered before."""
+        older than a frame offered before (by ``stamp``, if given: ``NewestSlot``)."""
         with self._cond:
             held = self.slot.offer(payload, self._clock() if generated_at is None
-                                   else generated_at)
+                                   else generated_at, stamp)
             self._cond.notify()
         return held
 

@@ -318,7 +318,7 @@ def _wan(net: EdgeCloud) -> list[tuple[int, int]]:
     return [(net.wan_up(s).sent_bytes, net.wan_down(s).sent_bytes) for s in net.sites]
 
 
-def _start_links(children: Children, net: EdgeCloud, specs: Specs) -> list[str]:
+def start_links(children: Children, net: EdgeCloud, specs: Specs) -> list[str]:
     """The cloud router, the relays, then the site routers (which dial the cloud);
     returns the children's names."""
     names = ["cloud-router"]
@@ -355,7 +355,7 @@ def run_edge_cloud(config: EdgeCloudConfig, records: Path, progress: Progress,
                 Children(multiprocessing.get_context("spawn")) as links:
             log.info("%s", net.describe())
             specs = Specs(net, config.ids, Path(tmp) / "pki" if config.secure else None)
-            link_names = _start_links(links, net, specs)
+            link_names = start_links(links, net, specs)
             for done, setup in enumerate(setups):
                 if stop.is_set():
                     break

@@ -70,7 +70,7 @@ class Ros2NewestPush:
 
     def _on_sample(self, cdr: bytes, source_ns: int | None, kind: RosType) -> None:
         stamp = round(self._clock() * NS_PER_S) if source_ns is None else source_ns
-        self.queue.offer((cdr, stamp, kind), stamp / NS_PER_S)
+        self.queue.offer((cdr, stamp, kind), stamp / NS_PER_S, stamp)
 
     def _send(self, sample: Sample, generated_at: float, seq: int) -> None:
         cdr, source_ns, kind = sample
