@@ -9,12 +9,23 @@ edges alone give the sites' own AoI. Each figure is the median ratio over the ro
 quartiles in brackets. Target: the closed mean AoI within 15 % of the open one's.
 
     .venv/bin/python benchmarks/bench_edge_cloud_secure.py --rounds 6
+
+With ``--against DIR`` (a ``git worktree`` of an older commit) each round runs closed
+twice instead, this tree's code and DIR's, each in a process of its own: what a change
+to the closed deployment cost (issue 43's per-site control and revocable passwords:
+its target, this tree's mean AoI within 5 % of the older one's).
+
+    git worktree add --detach /tmp/before 9cb5031
+    .venv/bin/python benchmarks/bench_edge_cloud_secure.py --rounds 4 --against /tmp/before
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
+import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -54,6 +65,36 @@ def run(secure: bool, k: int, duration: float) -> dict[str, float]:
     return _figures(by_kind["hierarchy"], by_kind["edge"])
 
 
+def run_in_tree(tree: Path, k: int, duration: float) -> dict[str, float]:
+    """A closed run of the code in ``tree`` (its own ``run``), in a process of its own."""
+    code = ("import json, sys; sys.path[:0] = ['.', 'benchmarks']; "
+            "from bench_edge_cloud_secure import run; "
+            f"print(json.dumps(run(True, {k}, {duration})))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=tree, check=True,
+                         capture_output=True, text=True).stdout
+    figures: dict[str, float] = json.loads(out.strip().splitlines()[-1])
+    return figures
+
+
+def _against(tree: Path, k: int, duration: float, rounds: int) -> None:
+    """Closed runs of this tree and of ``tree``, alternating which goes first."""
+    here = Path(__file__).resolve().parent.parent
+    rows: dict[Path, list[dict[str, float]]] = {here: [], tree: []}
+    for round_ in range(rounds):
+        for side in (tree, here) if round_ % 2 == 0 else (here, tree):
+            rows[side].append(run_in_tree(side, k, duration))
+        print(f"  round {round_ + 1}: " + "; ".join(
+            f"{name} {rows[tree][-1][name]:.2f} -> {rows[here][-1][name]:.2f}"
+            for name in FIGURES), flush=True)
+    print(f"closed, this tree / {tree}, median of the rounds (quartiles):")
+    for name, what in FIGURES.items():
+        ratios = [h[name] / t[name] for t, h in zip(rows[tree], rows[here], strict=True)
+                  if t[name] > 0]
+        print(f"  {what}: {statistics.median(r[name] for r in rows[tree]):.2f} -> "
+              f"{statistics.median(r[name] for r in rows[here]):.2f}; "
+              f"{statistics.median(ratios):.3f}{_quartiles(ratios)}")
+
+
 def _quartiles(values: list[float]) -> str:
     if len(values) < 2:
         return ""
@@ -67,8 +108,15 @@ def main() -> int:
     parser.add_argument("--in-flight", type=int, help="the cloud leader's K (default: the "
                         "K that keeps the WAN busy, 6 in the default setting)")
     parser.add_argument("--duration", type=float, default=15.0, help="seconds per window")
+    parser.add_argument("--against", type=Path, metavar="DIR", help="closed runs of this "
+                        "tree against those of the tree at DIR (an older commit's worktree)")
     args = parser.parse_args()
     k = args.in_flight or EdgeCloudConfig().wan_in_flight()
+    if args.against is not None:
+        print(f"edge-cloud closed, this tree against {args.against}, K = {k}, "
+              f"{args.duration:g} s windows; {args.rounds} rounds")
+        _against(args.against.resolve(), k, args.duration, args.rounds)
+        return 0
     print(f"edge-cloud, 2 sites x 6 followers, 20 Mbit/s channels, WAN 50 Mbit/s and 20 ms, "
           f"K = {k}, {args.duration:g} s windows; {args.rounds} rounds, open and closed")
     rows: dict[bool, list[dict[str, float]]] = {False: [], True: []}
