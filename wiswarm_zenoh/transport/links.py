@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
-from typing import cast
+from typing import Any, cast
 
 import zenoh
 
@@ -78,8 +78,10 @@ class FollowerLink:
             link._listeners.append(publisher.declare_matching_listener(
                 zenoh.handlers.Callback(partial(_set_matching, link, flag), indirect=False)))
             # (The stubs say this property is a bool; eclipse-zenoh 1.10 returns a
-            # MatchingStatus.)
-            setattr(link, flag, cast(zenoh.MatchingStatus, publisher.matching_status).matching)
+            # MatchingStatus: read untyped, or the mypyc-compiled build checks it for a
+            # bool and raises.)
+            status: zenoh.MatchingStatus = cast(Any, publisher).matching_status
+            setattr(link, flag, status.matching)
         return link
 
     def poll(self, payload: bytes, poll_seq: int) -> None:
