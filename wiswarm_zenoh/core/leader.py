@@ -21,12 +21,7 @@ from wiswarm_zenoh.core.poll_hold import PollHold
 from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
 from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
-from wiswarm_zenoh.core.wire import (
-    Poll,
-    decode_reply,
-    encode_poll,
-    validate_waypoints,
-)
+from wiswarm_zenoh.core.wire import Poll, decode_reply, encode_poll, validate_waypoints
 
 __all__ = ["FollowerStats", "Leader", "PollRequest", "drain"]
 
@@ -40,7 +35,8 @@ class Leader:
     many as ``in_flight.InFlightTuner`` finds worth it).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    membership (``add_/remove_/forget_follower``), the application's control and
+    membership (``add_/remove_/forget_follower``, ``follower_reachable``), the application's
+    control and
     weights, ``receive_reply(follower, data, now)`` for every reply,
     ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
     ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once (who joins
@@ -146,12 +142,10 @@ class Leader:
         self._control.drop(follower)
 
     def follower_reachable(self, follower: str) -> None:
-        """A member's token went and came back within the shell's grace (so it never
-        left): it is up now; if silent, it is probed at once."""
-        peer = self.table.peers.get(follower)
-        if peer is not None:
+        """Its token came back within the shell's grace (it is up): if silent, probed now."""
+        self._pick = None
+        if (peer := self.table.peers.get(follower)) is not None:
             peer.reachable()
-            self._pick = None
 
     def forget_follower(self, follower: str) -> None:
         """Drop the record of a follower that left (the shell decides how long to keep
