@@ -35,10 +35,9 @@ class Leader:
     many as ``in_flight.InFlightTuner`` finds worth it).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    membership (``add_/remove_/forget_follower``, ``follower_reachable``), the application's
-    control and
-    weights, ``receive_reply(follower, data, now)`` for every reply,
-    ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
+    membership (``add_/remove_/forget_follower``, ``follower_reachable``), the
+    application's control and weights, ``receive_reply(follower, data, now)`` for every
+    reply, ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
     ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once (who joins
     and leaves, and the weights preset for them: ``member_book``). Output:
     ``next_poll(now)`` until None (each poll, with the control broadcast when it is due:
