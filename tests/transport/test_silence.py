@@ -77,3 +77,20 @@ def test_a_follower_that_left_is_not_warned_of(lines: Lines) -> None:
     SilenceLog(relevant, GRACE).silent("uav1", 20)
     assert asked.wait(5.0)
     assert not lines.records
+
+
+def test_a_follower_that_rejoined_is_not_warned_of(lines: Lines) -> None:
+    """Its join forgot the polls it missed (it is no longer silent) without an answer,
+    so no "answers again" comes to cancel the warning: the join does (a cloud leader
+    warned of a site's followers after their router restarted, while they answered)."""
+    asked = threading.Event()
+
+    def relevant(follower: str) -> bool:
+        asked.set()
+        return True  # a member again
+
+    silence = SilenceLog(relevant, GRACE)
+    silence.silent("uav1", 20)
+    silence.rejoined("uav1")
+    assert not asked.wait(GRACE * 4)  # the warning's timer was cancelled: never asked
+    assert not lines.records

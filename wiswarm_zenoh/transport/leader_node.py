@@ -105,9 +105,10 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         # threads would otherwise poll on while the caller closes the session under them.
         self._closing = closing = ExitStack()
         try:
+            self._on_join = on_join
             self._membership = Membership(session, self.keys, self._leader, clock, put,
                                           self._reply, self._end, self.bad_input, forget_after,
-                                          on_join, on_leave)
+                                          self._joined, on_leave)
             closing.callback(self._membership.close)
             self.name = name or f"{socket.gethostname()}-{os.getpid()}".replace(".", "-")
             self._role_news = True  # the election may have changed its verdict: look
@@ -280,6 +281,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     def _role_changed(self) -> None:  # on Zenoh's thread
         self._role_news = True
         self._inbox.put(None)
+
+    def _joined(self, follower: str) -> None:  # on the poll thread
+        self._outlets.rejoined(follower)
+        if self._on_join is not None:
+            self._on_join(follower)
 
     def _timer(self) -> None:
         self._leader.handle_timer(self._clock())

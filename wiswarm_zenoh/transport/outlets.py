@@ -65,6 +65,10 @@ class Outlets:
         link.poll(request.payload, request.poll_seq)
         return None
 
+    def rejoined(self, follower: str) -> None:
+        """``follower`` joined again: no warning of a silence the join ended."""
+        self._silence.rejoined(follower)
+
     def _control_publisher(self, site: str | None) -> zenoh.Publisher:
         publisher = self._controls.get(site)
         if publisher is None:

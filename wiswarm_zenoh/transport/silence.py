@@ -4,7 +4,8 @@ The core calls a follower silent after a window of unanswered polls: at hundreds
 a second that is a few tens of milliseconds. A busy host, or routes settling as a peer
 link comes up, makes a follower miss that many and answer again at once: nothing for a
 user to act on, so that is INFO. A follower still silent after ``SILENCE_GRACE`` (and
-still a member: one that left says so itself) is the WARNING."""
+still a member: one that left says so itself; one that rejoined is polled afresh) is the
+WARNING."""
 
 from __future__ import annotations
 
@@ -49,6 +50,15 @@ class SilenceLog:
         pending[0].cancel()
         log.info("follower %s missed %d polls and answers again, after %.2f s", follower,
                  pending[1], silent_for)
+
+    def rejoined(self, follower: str) -> None:
+        """``follower`` left and joined again (a new process, or a router restarted): the
+        join took its silence away (its missed polls are forgotten) without an answer,
+        so a warning still pending would come while it answers."""
+        with self._lock:
+            pending = self._pending.pop(follower, None)
+        if pending is not None:
+            pending[0].cancel()
 
     def _warn(self, follower: str) -> None:
         with self._lock:
