@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from wiswarm_zenoh.transport import FollowerNode, LeaderNode, leader_node
+from wiswarm_zenoh.transport import FollowerNode, LeaderNode, weight_settings
 from wiswarm_zenoh.transport.keys import SwarmKeys
 
 from .helpers import WAIT, Recorder, Samples, Sessions, eventually
@@ -52,8 +52,8 @@ def test_a_preset_is_taken_at_join_and_again_when_the_member_comes_back(
 def test_a_preset_whose_member_never_joins_is_named_once(
         sessions: Sessions, router: zenoh.Session, port: int, recorder: Recorder,
         caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(leader_node, "PRESET_GRACE", 2.0)
-    caplog.set_level(logging.WARNING, logger=leader_node.__name__)
+    monkeypatch.setattr(weight_settings, "PRESET_GRACE", 2.0)
+    caplog.set_level(logging.WARNING, logger=weight_settings.__name__)
     uav1 = FollowerNode(sessions.node(port), SWARM, "uav1")  # up first: found at once
     with LeaderNode(sessions.node(port), SWARM, weights={"uav1": 2.0, "uav9": 3.0},
                     **recorder.callbacks()) as leader:

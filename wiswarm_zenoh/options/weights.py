@@ -8,7 +8,7 @@ import argparse
 from collections.abc import Sequence
 
 from wiswarm_zenoh.options.arguments import ArgType, finite_float, node_name
-from wiswarm_zenoh.transport.leader_node import PRESET_GRACE
+from wiswarm_zenoh.transport.weight_settings import PRESET_GRACE
 from wiswarm_zenoh.usage import UsageError
 
 _MEMBER = node_name("member", follower=True)

@@ -39,13 +39,12 @@ from wiswarm_zenoh.transport.outlets import Outlets
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD, StatsRounds
 from wiswarm_zenoh.transport.steady_gets import SteadyGets
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
-from wiswarm_zenoh.transport.weight_settings import WeightSettings
+from wiswarm_zenoh.transport.weight_settings import WeightPresets, WeightSettings
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
 Command = Callable[[], object] | None  # what a poll thread does next (None: wake up)
 POLL_THREADS = 2  # one may wait on a steady get while the other keeps inbox and timer
-PRESET_GRACE = 10.0  # seconds after the start by which a preset's member is looked for
 
 
 class LeaderNode(AbstractContextManager["LeaderNode"]):
@@ -59,9 +58,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     stats for ``forget_after`` s. ``bridge`` (e.g. ``wiswarm_zenoh.ros2.Ros2Options``)
     gets each delivery and round of stats. A follower's stats are made while someone
     subscribes to them, or always with ``every_record`` (for ``latest``). ``weights``:
-    members' weights given before they join (``wiswarm leader --weight``), each taken
-    whenever its member joins (again); one whose member has not joined within
-    ``PRESET_GRACE`` s is named in one WARNING.
+    members' weights given before they join (``wiswarm leader --weight``:
+    ``WeightPresets``).
     """
 
     def __init__(
@@ -88,11 +86,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         # A leader started later has a larger epoch: followers then take it as theirs.
         self._leader = Leader(config, rng, max(0, int(clock() * 1e6)) if epoch is None else epoch)
         self.config = self._leader.config
-        for follower, weight in (weights or {}).items():  # before any member can join
-            self._leader.preset_weight(follower, weight)
-        self._presets_looked_for = clock() + PRESET_GRACE if weights else math.inf
-        if weights:
-            log.info("weights preset: %s", ", ".join(f"{f} {w:g}" for f, w in weights.items()))
+        self._presets = WeightPresets(self._leader, weights or {}, clock())  # before joins
         self._clock = clock
         self._max_reply = self.config.max_update_bytes + FRAGMENT_HEADER_BYTES
         self._inbox: queue.SimpleQueue[Command] = queue.SimpleQueue()
@@ -309,22 +303,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         except ValueError as exc:
             log.info("not applied: %s", exc)
 
-    def _say_never_joined(self) -> None:
-        """One WARNING naming the members given a weight that have not joined."""
-        waiting = self._leader.members.never_joined
-        if waiting:
-            log.warning("weight preset for %s, but no such member joined in %g s "
-                        "(members: %s): is the name right? It is applied if one joins",
-                        ", ".join(waiting), PRESET_GRACE,
-                        ", ".join(self._leader.followers) or "none yet")
-
     def _publish_stats(self, now: float) -> None:
         """The stats due; at a new round, followers gone long are forgotten first."""
         if self._stats.between_rounds:
             self._membership.forget_departed(now)
             self._role.hold(now)
-            if now >= self._presets_looked_for:
-                self._presets_looked_for = math.inf
-                self._say_never_joined()
+            self._presets.look(now)
         self._stats.tick(now, self._leader, self._membership.links, self._role.active,
                          self.bridge)

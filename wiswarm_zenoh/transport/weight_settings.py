@@ -1,6 +1,7 @@
-"""Weights set without code: any tool puts a follower's application weight on
-``wiswarm/<swarm>/<follower>/weight`` (decimal text, e.g. ``4``), and the leader takes
-it as the weight the application's urgency feeds (``Leader.set_weight``).
+"""Weights set without code: given at the start (``wiswarm leader --weight``,
+``WeightPresets``), or put by any tool on ``wiswarm/<swarm>/<follower>/weight`` (decimal
+text, e.g. ``4``) at any time; the leader takes each as the weight the application's
+urgency feeds (``Leader.set_weight``).
 
 A value that is not a number >= 0, or a follower not polled, is counted and logged with
 the key it came on; the old weight stays. In a secured swarm only the leader's side may
@@ -9,16 +10,20 @@ put there (``security/acl.py``).
 
 from __future__ import annotations
 
+import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import zenoh
 
+from wiswarm_zenoh.core import Leader
 from wiswarm_zenoh.transport.badinput import BadInputLog
 from wiswarm_zenoh.transport.entities import undeclare
 from wiswarm_zenoh.transport.keys import SwarmKeys
 
+log = logging.getLogger(__name__)
 MAX_TEXT = 64  # a weight's text is short: anything longer is not one
+PRESET_GRACE = 10.0  # seconds after the start by which a preset's member is looked for
 
 
 def parse_weight(payload: bytes) -> float:
@@ -55,3 +60,29 @@ class WeightSettings:
 
     def close(self) -> None:
         undeclare(self._subscriber)
+
+
+class WeightPresets:
+    """Members' weights given before they join, each taken whenever its member joins
+    (again); one whose member has not joined within ``PRESET_GRACE`` s of ``now`` is
+    named in one WARNING (a misspelt name would otherwise weigh nothing, silently)."""
+
+    def __init__(self, leader: Leader, weights: Mapping[str, float], now: float) -> None:
+        self._leader = leader
+        for follower, weight in weights.items():
+            leader.preset_weight(follower, weight)
+        self._look_at = now + PRESET_GRACE if weights else math.inf
+        if weights:
+            log.info("weights preset: %s", ", ".join(f"{f} {w:g}" for f, w in weights.items()))
+
+    def look(self, now: float) -> None:
+        """Name, once, the presets whose member has not joined in the grace."""
+        if now < self._look_at:
+            return
+        self._look_at = math.inf
+        waiting = self._leader.members.never_joined
+        if waiting:
+            log.warning("weight preset for %s, but no such member joined in %g s "
+                        "(members: %s): is the name right? It is applied if one joins",
+                        ", ".join(waiting), PRESET_GRACE,
+                        ", ".join(self._leader.followers) or "none yet")
