@@ -124,6 +124,9 @@ def test_a_claim_one_answer_lacks_stays_and_one_two_answers_lack_is_gone(
     monkeypatch.undo()
     try:
         assert election.active == ghost
+        # The premise: the watch saw older's token come (its history may still be on its
+        # way on a busy host; then older was a claim only answers gave, and was dropped).
+        eventually("the watch sees older", lambda: (3, "older") in election._watched)
         lacking = {election.claim}  # an answer with this leader's token only
 
         def answer(*answers: set[tuple[int, str]] | None) -> None:
