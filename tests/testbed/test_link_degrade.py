@@ -115,7 +115,11 @@ def test_a_capped_process_gets_its_cap_and_the_other_the_rest(
     _show(f"one capped at {CAP / 1e6:g}:", rates)
     assert 0.5 * CAP <= rates[slow_port] <= 1.3 * CAP
     assert rates[other_port] >= 0.8 * (RATE - CAP)
-    assert payload <= sent <= 1.15 * payload  # the tbf still counts every byte
+    # The tbf still counts every byte: a capped flow that bypassed it would leave it
+    # about 0.75 of the payload. Not payload <= sent exactly: the receiver's counts lag
+    # the tbf's by what waits in its socket, so a window's two edges may skew by a few
+    # per cent (6.48 MB received against 6.27 MB sent once under load).
+    assert 0.9 * payload <= sent <= 1.15 * payload
     capped = channel.cap_counters(slow)
     assert 0 < capped.sent_bytes < channel.uplink().sent_bytes
     assert f"process {slow}'s 1 flow(s) capped at" in channel.describe()
