@@ -51,6 +51,7 @@ from typing import Any
 
 import zenoh
 from machine_cost import MachineCost
+from poll_report import report, report_watched
 
 from wiswarm_zenoh.core import Follower, FollowerConfig, LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
@@ -344,51 +345,6 @@ def measure_secure(n: int, args: argparse.Namespace) -> None:
                                  else paired * 3)
             print(f"  {secured + ' / ' + kind:31} {median:5.2f}   target >= 0.85   (median of "
                   f"{len(paired)} paired rounds, quartiles {low:.2f} .. {high:.2f})")
-
-
-def report(n: int, args: argparse.Namespace, bare: list[float], leader: list[float],
-           stats: list[dict[str, Any]], fast_share: float) -> None:
-    a, b = statistics.median(bare), statistics.median(leader)
-    s = 1.0 / a
-    floor = s * (n / 2 + 1)
-    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
-    source = f"camera at {args.camera:g} Hz" if args.camera else "a fresh update every poll"
-    hosts = "one host process" if args.layout == "host" else "a process per follower"
-    print(f"\nN = {n}, {args.frame_bytes} B updates ({source}), {args.mode} mode via a router, "
-          f"followers in {hosts}, {args.rounds} rounds of {args.seconds:g} s, "
-          f"control period {args.control_period:g} s "
-          f"(load average {load} on {os.cpu_count()} CPUs)")
-    print(f"  (a) bare get loop   {a:8.0f} polls/s   (rounds: "
-          f"{', '.join(f'{x:.0f}' for x in bare)})   S = {s * 1e3:.3f} ms")
-    print(f"  (b) leader loop     {b:8.0f} polls/s   (rounds: "
-          f"{', '.join(f'{x:.0f}' for x in leader)})   "
-          f"{fast_share:.0%} sent the moment the reply before came")
-    paired = sorted(y / x for x, y in zip(bare, leader, strict=True))
-    low, median, high = statistics.quantiles(paired, n=4) if len(paired) > 1 else paired * 3
-    print(f"  ratio (b)/(a)       {median:8.2f}   target >= 0.90   (median of the {len(paired)} "
-          f"pairs of rounds, quartiles {low:.2f} .. {high:.2f}; ratio of the medians "
-          f"{b / a:.2f})")
-    # The time the middleware adds to each poll, next to what the target allows: it says
-    # whether a low ratio comes from a larger overhead or from a faster bare loop.
-    added = sorted((1.0 / y - 1.0 / x) * 1e6 for x, y in zip(bare, leader, strict=True))
-    low, median, high = statistics.quantiles(added, n=4) if len(added) > 1 else added * 3
-    print(f"  added per poll      {median:8.0f} us   (quartiles {low:.0f} .. {high:.0f}; "
-          "the target allows 50 us)")
-    print(f"  mean AoI per follower, last (b) round ({args.policy}); "
-          f"round-robin floor S (N/2 + 1) = {floor * 1e3:.2f} ms")
-    for record in sorted(stats, key=lambda r: str(r["follower"])):
-        print(f"    {record['follower']:>6}  {float(record['mean_aoi_s']) * 1e3:7.2f} ms"
-              f"   p95 {float(record['p95_aoi_s']) * 1e3:7.2f} ms   polls {record['polls']}")
-
-
-def report_watched(leader: list[float], watched: list[tuple[float, float]]) -> None:
-    paired = sorted(w / x for x, (w, _) in zip(leader, watched, strict=True))
-    low, median, high = statistics.quantiles(paired, n=4) if len(paired) > 1 else paired * 3
-    records = statistics.median(got for _, got in watched)
-    print(f"  (c) leader watched  {statistics.median(w for w, _ in watched):8.0f} polls/s   "
-          f"a subscriber to leader/deliveries got {records:.0f} records/s")
-    print(f"  ratio (c)/(b)       {median:8.3f}   target >= 0.98   (median of the "
-          f"{len(paired)} pairs of rounds, quartiles {low:.3f} .. {high:.3f})")
 
 
 def main() -> None:

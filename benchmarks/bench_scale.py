@@ -41,23 +41,21 @@ import argparse
 import contextlib
 import cProfile
 import dataclasses
-import gc
 import os
 import pstats
 import statistics
 import sys
 import threading
 import time
-from array import array
-from collections import defaultdict
 from functools import partial
 
 import zenoh
 from bench_poll import BARE, NO_SHM, Job, children, serve_bare, wait_for_routes
 from machine_cost import MachineCost
+from scale_probes import Pauses, machine_busy, process_cpu, rss_bytes, thread_cpu
+from scale_watch import Watch, window_figures
 
-from wiswarm_zenoh.core import Delivered, LeaderConfig
-from wiswarm_zenoh.core.aoi import AoITracker
+from wiswarm_zenoh.core import LeaderConfig
 from wiswarm_zenoh.core.wire import Poll, encode_poll
 from wiswarm_zenoh.programs.runners import (
     ReadySignal,
@@ -71,7 +69,6 @@ from wiswarm_zenoh.transport.zenoh_config import free_tcp_port
 
 SWARM = "bench"
 DISCOVERY_TIMEOUT = 120.0
-TICKS = os.sysconf("SC_CLK_TCK")
 
 
 def host_process(spec: SessionSpec, followers: list[str], frame_bytes: int,
@@ -99,87 +96,6 @@ def profile_poll_thread(profilers: list[cProfile.Profile], *_: object) -> None:
         profiler.enable()
 
 
-def rss_bytes() -> int:
-    with open("/proc/self/status") as status:
-        for line in status:
-            if line.startswith("VmRSS:"):
-                return int(line.split()[1]) * 1024
-    raise RuntimeError("no VmRSS in /proc/self/status")
-
-
-def thread_cpu(native_ids: list[int]) -> float:
-    """CPU seconds of some threads of this process (user + system)."""
-    total = 0
-    for native_id in native_ids:
-        with open(f"/proc/self/task/{native_id}/stat") as stat:
-            fields = stat.read().rsplit(")", 1)[1].split()
-        total += int(fields[11]) + int(fields[12])
-    return total / TICKS
-
-
-def machine_busy() -> float:
-    """CPU seconds every core of the machine has spent busy so far (all processes)."""
-    with open("/proc/stat") as stat:
-        fields = [int(x) for x in stat.readline().split()[1:]]
-    return (sum(fields) - fields[3] - fields[4]) / TICKS  # all but idle and iowait
-
-
-def process_cpu() -> float:
-    times = os.times()
-    return times.user + times.system
-
-
-class Pauses:
-    """The garbage collector's pauses in this process (a pause of the poll thread's
-    interpreter holds every reply back: a long one makes polls time out)."""
-
-    def __init__(self) -> None:
-        self.longest = [0.0, 0.0, 0.0]  # per generation, seconds
-        self.count = [0, 0, 0]
-        self._started = 0.0
-        gc.callbacks.append(self._on_gc)
-
-    def _on_gc(self, phase: str, info: dict[str, int]) -> None:
-        if phase == "start":
-            self._started = time.perf_counter()
-            return
-        generation = info["generation"]
-        self.count[generation] += 1
-        self.longest[generation] = max(self.longest[generation],
-                                       time.perf_counter() - self._started)
-
-    def close(self) -> None:
-        gc.callbacks.remove(self._on_gc)
-
-
-class Watch:
-    """The leader's joins and deliveries. Its callbacks run on the poll thread: a few
-    appends to arrays, nothing more, and no object per delivery for the leader's garbage
-    collector to walk (tens of thousands of tuples would lengthen its pauses)."""
-
-    def __init__(self, followers: list[str]) -> None:
-        self.index = {follower: i for i, follower in enumerate(followers)}
-        self.joined = 0
-        self.all_joined = threading.Event()
-        self.delivered: set[str] = set()
-        self.all_delivered = threading.Event()
-        self.who, self.generated, self.at = array("l"), array("d"), array("d")
-
-    def on_join(self, follower: str) -> None:
-        self.joined += 1
-        if self.joined == len(self.index):
-            self.all_joined.set()
-
-    def on_delivery(self, event: Delivered) -> None:
-        self.who.append(self.index[event.follower])
-        self.generated.append(event.generated_at)
-        self.at.append(event.delivered_at)
-        if not self.all_delivered.is_set():
-            self.delivered.add(event.follower)
-            if len(self.delivered) == len(self.index):
-                self.all_delivered.set()
-
-
 @dataclasses.dataclass
 class Window:
     seconds: float
@@ -192,27 +108,6 @@ class Window:
     timeouts: int  # polls that went unanswered, from the leader's stats (a round apart)
     pauses: Pauses
     fast: int  # polls sent on the pick made while the poll before was out
-
-
-def window_figures(watch: Watch, followers: list[str], start: float,
-                   end: float) -> tuple[dict[str, int], dict[str, float]]:
-    """Deliveries of each follower in [start, end], and its time-average AoI there (from
-    the age it had at ``start``)."""
-    last_before: dict[int, float] = {}
-    inside: dict[int, list[tuple[float, float]]] = defaultdict(list)
-    for i, generated, delivered in zip(watch.who, watch.generated, watch.at, strict=True):
-        if delivered < start:
-            last_before[i] = max(generated, last_before.get(i, generated))
-        elif delivered <= end:
-            inside[i].append((generated, delivered))
-    counts, means = {}, {}
-    for follower in followers:
-        i = watch.index[follower]
-        tracker = AoITracker(start, max(0.0, start - last_before.get(i, start)))
-        for generated, delivered in inside[i]:
-            tracker.deliver(generated, delivered)
-        counts[follower], means[follower] = len(inside[i]), tracker.mean(end)
-    return counts, means
 
 
 def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace,

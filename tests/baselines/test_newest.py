@@ -11,7 +11,7 @@ from collections.abc import Iterator
 import pytest
 import zenoh
 
-from tests.baselines.test_senders_receivers import FRAME, Clock, Frames
+from tests.baselines.helpers import FRAME, Clock, Frames
 from tests.transport.helpers import WAIT, Samples, Sessions, wait_until_known
 from wiswarm_zenoh.baselines import (
     NEWEST_ZENOH,

@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 import zenoh
 
+from tests.baselines.helpers import FRAME, Clock, Frames
 from tests.transport.helpers import WAIT, Samples, Sessions, eventually, wait_until_known
 from wiswarm_zenoh.baselines import (
     BaselineFollowerOptions,
@@ -38,7 +39,6 @@ from wiswarm_zenoh.programs.demo import Children
 from wiswarm_zenoh.programs.ticker import Ticker
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec, free_tcp_port
 
-FRAME = bytes(range(256)) * 20
 CONTRACT = {"follower", "aoi_s", "mean_aoi_s", "p95_aoi_s", "p_hat", "weight", "polls",
             "deliveries", "timeouts", "errors"}
 LEADER_CONTRACT = {"followers", "polls_per_s", "mean_aoi_s", "policy", "uptime_s"}
@@ -50,43 +50,6 @@ def sessions() -> Iterator[Sessions]:
     opened = Sessions()
     yield opened
     opened.close_all()
-
-
-class Clock:
-    """``time.time``, made to tick between calls: frames offered back to back in a test
-    must not share a generation time (the second would not be fresher: stale)."""
-
-    def __init__(self) -> None:
-        self._last = 0.0
-        self._lock = threading.Lock()
-
-    def __call__(self) -> float:
-        with self._lock:
-            self._last = max(time.time(), self._last + 1e-6)
-            return self._last
-
-
-class Frames:
-    """What a receiver handed on (its ``on_frame``), waitable."""
-
-    def __init__(self) -> None:
-        self.frames: list[tuple[str, bytes, float, float]] = []
-        self.cond = threading.Condition()
-
-    def __call__(self, follower: str, payload: bytes, generated_at: float, now: float) -> None:
-        with self.cond:
-            self.frames.append((follower, payload, generated_at, now))
-            self.cond.notify_all()
-
-    def of(self, follower: str) -> list[tuple[str, bytes, float, float]]:
-        with self.cond:
-            return [f for f in self.frames if f[0] == follower]
-
-    def wait_for(self, followers: set[str], each: int) -> None:
-        with self.cond:
-            assert self.cond.wait_for(lambda: all(
-                sum(f[0] == name for f in self.frames) >= each for name in followers),
-                WAIT), f"fewer than {each} frames from each of {followers}"
 
 
 def _senders(kind: str, sessions: Sessions, port: int, bind: str) -> list[Sender]:
