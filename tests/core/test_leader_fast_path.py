@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import random
+from collections.abc import Callable
 
 import pytest
 from hypothesis import given, settings
@@ -67,14 +68,26 @@ def _fast(leader: Leader, request: PollRequest, raw: bytes,
     return following, drain(leader)
 
 
+def _early(leader: Leader, request: PollRequest, raw: bytes,
+           now: float) -> tuple[PollRequest, list[Event]]:
+    """As a shell that sends the next poll before the reply is judged where it can."""
+    following = leader.poll_on_answer(request.follower, raw, now)
+    leader.receive_reply(request.follower, raw, now)
+    if following is None:
+        following = poll(leader, now)
+    assert leader.next_poll(now) is None
+    return following, drain(leader)
+
+
 def _delivered(events: list[Event]) -> list[tuple[str, bytes, float]]:
     return [(e.follower, e.payload, e.generated_at) for e in events if isinstance(e, Delivered)]
 
 
-def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]) -> int:
+def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]],
+                   path: Callable[..., tuple[PollRequest, list[Event]]] = _fast) -> Leader:
     """Two swarms fed the same frames: one leader takes every reply the usual way, the
-    other on the fast path where it can. Both must poll the same followers in the same
-    order and deliver the same updates. Returns how many polls took the fast path."""
+    other on the fast ``path`` where it can. Both must poll the same followers in the
+    same order and deliver the same updates. Returns the fast one."""
     config = LeaderConfig(pace_sources=False)  # polls that find nothing new stay in
     usual, usual_followers = _swarm(n, config)
     fast, fast_followers = _swarm(n, config)
@@ -90,7 +103,7 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
             followers[f"uav{who % n}"].offer(FRAME + bytes([step % 256]),
                                              usual_request.sent_at - made_before)
         arrives = fast_request.sent_at + fast.slot  # when the pick expected it: same ages
-        fast_request, events = _fast(fast, fast_request, _answer(fast_followers, fast_request),
+        fast_request, events = path(fast, fast_request, _answer(fast_followers, fast_request),
                                      arrives)
         fast_events += events
         usual_request, events = _usual(usual, usual_request,
@@ -99,7 +112,7 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
         assert fast_request.follower == usual_request.follower, step
     assert _delivered(fast_events) == _delivered(usual_events)
     assert usual.fast_polls == 0
-    return fast.fast_polls
+    return fast
 
 
 @settings(max_examples=60, deadline=None)
@@ -111,15 +124,32 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
 def test_the_fast_path_picks_what_the_usual_path_picks(
         n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
     # mostly fast, after two polls whose picks are made before any slot was measured
-    assert _compare_paths(n, weights, offers) >= (len(offers) - 2) // 2
+    assert _compare_paths(n, weights, offers).fast_polls >= (len(offers) - 2) // 2
 
 
-def test_the_fast_path_picks_what_the_usual_path_picks_among_many() -> None:
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(2, 6),
+    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
+    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
+)
+def test_polls_sent_before_the_reply_is_judged_are_the_usual_picks(
+        n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
+    early = _compare_paths(n, weights, offers, _early)
+    assert early.early.polls <= early.fast_polls
+
+
+@pytest.mark.parametrize("path", [_fast, _early])
+def test_the_fast_path_picks_what_the_usual_path_picks_among_many(
+        path: Callable[..., tuple[PollRequest, list[Event]]]) -> None:
     n = PLAIN_LOOPS_MAX + 6  # numpy's side of prepare
     rng = random.Random(3)
     weights = [rng.uniform(0.1, 10.0) for _ in range(n)]
     offers = [(rng.randrange(n), rng.uniform(0.0, 0.002)) for _ in range(300)]
-    assert _compare_paths(n, weights, offers) >= 150
+    fast = _compare_paths(n, weights, offers, path)
+    assert fast.fast_polls >= 150
+    if path is _early:  # each answer brings a whole update: each next poll goes first
+        assert fast.early.polls >= 150
 
 
 def _picked_exchange(n: int = 3) -> tuple[Leader, dict[str, Follower], PollRequest, bytes]:

@@ -9,6 +9,7 @@ from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.control_schedule import ControlSchedule
+from wiswarm_zenoh.core.early_answers import EarlyAnswers
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Event, Rejected, Stale, drain
 from wiswarm_zenoh.core.in_flight import InFlightTuner
@@ -21,7 +22,7 @@ from wiswarm_zenoh.core.poll_hold import PollHold
 from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
 from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
-from wiswarm_zenoh.core.wire import Poll, decode_reply, encode_poll, validate_waypoints
+from wiswarm_zenoh.core.wire import Poll, encode_poll, validate_waypoints
 
 __all__ = ["FollowerStats", "Leader", "PollRequest", "drain"]
 
@@ -35,11 +36,10 @@ class Leader:
     many as ``in_flight.InFlightTuner`` finds worth it).
 
     The shell feeds input and pulls output, nothing else (aioquic's shape). Input:
-    membership (``add_/remove_/forget_follower``, ``follower_reachable``), the
-    application's control and weights, ``receive_reply(follower, data, now)`` for every
-    reply, ``receive_end(follower, poll_seq, now)`` when a request can bring no more replies,
-    ``handle_timer(now)`` at ``get_timer()``. Each does all its work at once (who joins
-    and leaves, and the weights preset for them: ``member_book``). Output:
+    membership (``add_/remove_/forget_follower``, ``follower_reachable``: ``member_book``),
+    the application's control and weights, ``receive_reply`` for every reply,
+    ``receive_end`` when a request can bring no more, ``handle_timer(now)`` at
+    ``get_timer()``; each does all its work at once. Output:
     ``next_poll(now)`` until None (each poll, with the control broadcast when it is due:
     ``config.control_period``), ``next_event()`` until None (it only pops). Bad bytes
     never raise: they come back as ``Rejected`` events, counted against the follower.
@@ -48,7 +48,8 @@ class Leader:
     after it (``scheduling.pick_after``: ages at the reply's expected time); if the
     reply comes as expected and nothing else moved, the next ``next_poll`` weighs only
     the polled follower's new index against that pick (``scheduling.still_holds``,
-    ``fast_polls``) instead of a pass over every follower.
+    ``fast_polls``) instead of a pass over every follower; where the reply alone
+    decides that, before the reply is judged (``poll_on_answer``, ``early``).
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
@@ -65,6 +66,7 @@ class Leader:
         self.unknown_replies = 0
         self.polls = 0
         self.fast_polls = 0  # polls sent on a pick made while the poll before was out
+        self.early = EarlyAnswers()  # of them, those sent before its reply was judged
         self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
         self._poll_seq = 0
         self._control = ControlSchedule(self.config.control_period)
@@ -99,8 +101,7 @@ class Leader:
 
     @property
     def in_flight_limit(self) -> int:
-        """The polls it keeps out, trials aside: ``config.in_flight``, or what the tuner
-        found."""
+        """The polls it keeps out, trials aside: ``config.in_flight`` or the tuner's."""
         return self._fixed_in_flight if self.tuner is None else self.tuner.limit
 
     @property
@@ -116,13 +117,11 @@ class Leader:
     # --- input ---
 
     def add_follower(self, follower: str, now: float, link: str | None = None) -> None:
-        """A follower joined, or rejoined after a restart (its transfer state is reset;
-        a reply it gave before is taken first, as things were then). One that left and
-        comes back is taken up where it was: its age is what its last delivery makes it,
-        not a fresh start; the polls it missed while gone leave its p, and it is polled
-        as soon as its index says, not when a probe's back-off ends. Followers given one
-        ``link`` (a site) share its p. A weight preset for it (``preset_weight``) is
-        its weight again at each join."""
+        """A follower joined, or rejoined after a restart (transfer state reset). One
+        that left and comes back is taken up where it was (its age, not a fresh start;
+        its p without the polls it missed; polled as its index says, not after a
+        probe's back-off). Followers given one ``link`` (a site) share its p. A weight
+        preset for it (``preset_weight``) is its weight again at each join."""
         if not follower:
             raise ValueError("follower id must be a non-empty string")
         self._pick = None
@@ -130,10 +129,9 @@ class Leader:
         self.members.join(follower, now, link)
 
     def remove_follower(self, follower: str, now: float | None = None) -> None:
-        """A follower left (its liveliness token went) at ``now``: it is polled no more,
-        its poll and replies are dropped. Its record stays, ageing (``stats``,
-        ``departed``), as nothing fresh comes from it, until ``forget_follower`` or its
-        return; its mean and p95 AoI stay those of its time present."""
+        """A follower left (its token went) at ``now``: polled no more, its poll and
+        replies dropped. Its record stays, ageing (``stats``, ``departed``), until
+        ``forget_follower`` or its return; its mean and p95 AoI are its time present's."""
         if not self.members.leave(follower, now):
             return
         self._flights.pop(follower, None)
@@ -141,14 +139,13 @@ class Leader:
         self._control.drop(follower)
 
     def follower_reachable(self, follower: str) -> None:
-        """Its token came back within the shell's grace (it is up): if silent, probed now."""
+        """Its token came back within the shell's grace: if silent, probed now."""
         self._pick = None
         if (peer := self.table.peers.get(follower)) is not None:
             peer.reachable()
 
     def forget_follower(self, follower: str) -> None:
-        """Drop the record of a follower that left (the shell decides how long to keep
-        showing its age)."""
+        """Drop the record of a follower that left (the shell says when)."""
         self.members.departed.pop(follower, None)
 
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
@@ -158,12 +155,9 @@ class Leader:
 
     def rise_above(self, heard: int, now: float, weights: Mapping[str, float] | None = None,
                    control: Mapping[str, Sequence[Sequence[float]]] | None = None) -> int:
-        """Become (or stay) the active leader with an epoch above any other leader's, so
-        that followers take this one's polls: above ``heard`` (the largest heard,
-        whatever the clocks) and the time ``now`` in microseconds (any leader active
-        before has a smaller one, even one never heard, as across a healed partition).
-        With the ``weights`` and ``control`` of the leader it takes over from, if given
-        (``take_over``); the epoch taken."""
+        """Become (or stay) the active leader, with an epoch (returned) above ``heard``
+        (the largest heard) and ``now`` in µs (above any leader active before, even one
+        never heard), and the ``weights`` and ``control`` it takes over (``take_over``)."""
         epoch = max(self.epoch, heard + 1, int(now * 1e6))
         self.take_over(epoch, weights or {}, control or {})
         return epoch
@@ -193,9 +187,8 @@ class Leader:
         self._pick = None  # a pick made ahead weighed the old weight
 
     def preset_weight(self, follower: str, weight: float) -> None:
-        """An operator's weight for ``follower`` whether it is a member yet or not: its
-        weight now if it is, and each time it joins (or comes back); ValueError for a
-        weight that is not >= 0. ``members.never_joined``: those not seen yet."""
+        """An operator's weight for ``follower``, a member yet or not: now, and at each
+        join (ValueError if not >= 0; ``members.never_joined``: those not seen yet)."""
         self.members.preset(follower, weight)
         self._pick = None
 
@@ -209,7 +202,7 @@ class Leader:
                 self._events.append(Stale(follower, "reply from a follower that is not a member"))
             return
         try:
-            reply = decode_reply(data, follower)
+            reply = self.early.reply(data, follower)
         except WireError as exc:
             self._reject(peer, follower, str(exc))
             return
@@ -237,6 +230,22 @@ class Leader:
         if self.tuner is not None:  # the answers that carry something are the throughput
             self.tuner.completed(reply.fragment is not None, now, len(self.table.ids))
 
+    def poll_on_answer(self, follower: str, data: object, now: float) -> PollRequest | None:
+        """The next poll, put in flight before ``data``, a reply of ``follower``, is
+        judged (``receive_reply`` with the same ``data`` comes next, as always), where
+        the reply alone decides it (``early_answers``): one poll out, sources taken as
+        always fresh, not a site's follower. None: judge first, then ``next_poll``."""
+        pick, flight, table = self._pick, self._flights.get(follower), self.table
+        if pick is None or flight is None or len(self._flights) != 1 \
+                or flight.request.poll_seq != pick.poll_seq or self.tuner is not None \
+                or self._fixed_in_flight != 1 or table.unfresh or table.known_intervals \
+                or follower in self.site_links.link_of \
+                or not self.early.decides(pick, flight, table, data, now):
+            return None
+        self._pick = None
+        self.fast_polls += 1
+        return self._start_poll(pick.choice, now, True)
+
     def handle_timer(self, now: float) -> None:
         """Every poll out whose deadline has passed is unanswered."""
         expired = [flight for flight in self._flights.values()
@@ -247,13 +256,10 @@ class Leader:
             self._unanswered(flight, now)
 
     def receive_end(self, follower: str, poll_seq: int, now: float) -> None:
-        """No more replies can come to poll ``poll_seq`` of ``follower``: the shell's
-        request is over (Zenoh's get: no queryable matched, or every replier sent its
-        last). If no valid reply was taken, the poll is unanswered within ``END_GRACE``,
-        not at its deadline, and the channel is free for the next; a reply refused
-        meanwhile kept it open only while the genuine answer could still come. (The
-        grace: a reply and the get's end may come over two paths, a peer's own link
-        and the router's, and the end first.)"""
+        """No more replies can come to poll ``poll_seq`` of ``follower`` (Zenoh's get is
+        over): unless a valid reply was taken, the poll is unanswered within
+        ``END_GRACE`` (a reply and the get's end may come over two paths, the end first),
+        not at its deadline, and the channel is free for the next."""
         flight = self._flights.get(follower)
         if flight is None or flight.request.poll_seq != poll_seq:
             return  # answered, or timed out before (a late reply may still be on its way)
@@ -263,10 +269,9 @@ class Leader:
 
     def next_poll(self, now: float) -> PollRequest | None:
         """The poll to send now, put in flight; None while ``config.in_flight`` are out
-        (then, with one out, the pick for after it is made), nobody is left to poll, no
-        poll can find anything new before ``get_timer()`` (every source paced and none
-        due, no probe due: ``sources``), or the poll picked is worth holding until its
-        phased source's next update is ready (``poll_hold``; ``get_timer()`` says when)."""
+        (with one out: the pick for after it is made), nobody is left to poll, no poll
+        can find anything new before ``get_timer()`` (``sources``), or the poll picked
+        is worth holding for its phased source's next update (``poll_hold``)."""
         out, allowed = self._flights, self.polls_allowed
         if len(out) >= allowed or len(out) >= len(self.table.ids):
             if allowed == 1:
@@ -291,7 +296,7 @@ class Leader:
             return None
         if fast:
             self.fast_polls += 1
-        return self._start_poll(choice, now, allowed == 1)
+        return self._start_poll(choice, now, allowed == 1 and not out)
 
     def next_event(self) -> Event | None:
         """What happened, oldest first; None when nothing is left."""
@@ -325,10 +330,9 @@ class Leader:
 
     def _waits_for_sources(self, now: float) -> bool:
         """No poll can find anything new before ``table.wake_at()`` (after ``now``):
-        every live follower's source is paced and not due, no probe is due. (A swarm of
-        silent followers only is polled on, as without pacing: one that came back is
-        found at once.) With no source paced and none silent, nothing is ever waited
-        for: no pass over the table."""
+        every live follower's source is paced and not due, no probe is due (a swarm of
+        silent followers only is polled on). With no source paced and none silent: no
+        pass over the table."""
         table = self.table
         return self._pacing and table.unfresh > 0 and table.silent < len(table) \
             and table.wake_at() > now
@@ -351,9 +355,8 @@ class Leader:
 
     def _complete(self, request: PollRequest, now: float, peer: Peer, before: float,
                   outcome: list[Event]) -> None:
-        """The poll ``request`` of ``peer`` is over: the slot, the follower's ``outcome``
-        (its events), and the p it shares with a site's other followers (its p was
-        ``before`` the outcome)."""
+        """The poll ``request`` of ``peer`` is over: the slot, its ``outcome`` (events),
+        and the p it shares with a site's followers (``before``: its p before)."""
         duration = max(now - request.sent_at, 1e-6)
         self.slot = SLOT_EMA * self.slot + (1.0 - SLOT_EMA) * duration
         self._events.extend(outcome)
@@ -372,10 +375,11 @@ class Leader:
         self._pick = pick_after(self.table, self._indexed, self.slot, request.poll_seq,
                                 self.table.index(request.follower), request.sent_at + self.slot)
 
-    def _start_poll(self, choice: int, now: float, one_allowed: bool) -> PollRequest:
+    def _start_poll(self, choice: int, now: float, alone: bool) -> PollRequest:
         """Put a poll of the follower at ``choice`` in the table in flight, with the
         control information if it changed or ``config.control_period`` has passed
-        (steady if ``one_allowed`` and it is the only one out, to a follower answering)."""
+        (steady if ``alone``: the only one out, but a poll answered; to a follower
+        answering)."""
         follower = self.table.ids[choice]
         peer = self.table.peers[follower]
         hold = self._hold
@@ -385,7 +389,7 @@ class Leader:
         peer.polled()
         control = self._control.take(now)
         timing = peer.timing
-        steady = one_allowed and not self._flights and timing.unanswered == 0 \
+        steady = alone and timing.unanswered == 0 \
             and not peer.silent and timing.measured
         poll = Poll(self._poll_seq, now, peer.ack, peer.want, self.epoch)
         request = PollRequest(

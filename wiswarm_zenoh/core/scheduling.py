@@ -106,6 +106,18 @@ def still_holds(pick: Pick, table: PeerTable, now: float) -> bool:
     ages = ages_in_slots([table.tau[i]], [table.due[i]], [table.interval[i]],
                          [table.ready[i]], pick.at, pick.slot)
     value = pick.policy.indices([table.w[i]], [table.p[i]], ages)[0]
+    return value < pick.value or (value == pick.value and i > pick.choice)  # ties: first
+
+
+def holds_on_answer(pick: Pick, table: PeerTable, tau: float, p: float, now: float) -> bool:
+    """``still_holds`` before the answer is judged, for sources taken as always fresh:
+    the polled follower's row as the answer would leave it, its freshest update at
+    ``tau`` and its p at ``p`` (its weight as it is)."""
+    if now > pick.at + pick.slot or table.disturbed:
+        return False
+    i = pick.polled
+    age = pick.at - max(table.tau[i], tau)
+    value = pick.policy.indices([table.w[i]], [p], [age / pick.slot if age > 0.0 else 0.0])[0]
     return value < pick.value or (value == pick.value and i > pick.choice)
 
 

@@ -17,17 +17,17 @@ class SiteLinks:
     def __init__(self) -> None:
         self._estimators: dict[str, ReliabilityEstimator] = {}
         self._members: dict[str, list[str]] = {}
-        self._link_of: dict[str, str] = {}
+        self.link_of: dict[str, str] = {}  # each follower's link, if it has one
 
     def attach(self, follower: str, peer: Peer, link: str) -> None:
         """``follower`` is reached over ``link``: its peer takes the link's estimator
         (the first follower's own, for a new link)."""
         peer.share_reliability(self._estimators.setdefault(link, peer.reliability))
         self._members.setdefault(link, []).append(follower)
-        self._link_of[follower] = link
+        self.link_of[follower] = link
 
     def detach(self, follower: str) -> None:
-        link = self._link_of.pop(follower, None)
+        link = self.link_of.pop(follower, None)
         if link is None:
             return
         members = self._members[link]
@@ -37,12 +37,8 @@ class SiteLinks:
 
     def siblings(self, follower: str) -> list[str]:
         """The other followers behind ``follower``'s link (none without a link)."""
-        link = self._link_of.get(follower)
+        link = self.link_of.get(follower)
         return [] if link is None else [m for m in self._members[link] if m != follower]
-
-    def shared(self, follower: str) -> bool:
-        link = self._link_of.get(follower)
-        return link is not None and len(self._members[link]) > 1
 
     def shared_change(self, polled: str, before: float, table: PeerTable, window: int,
                       now: float) -> list[Event]:

@@ -37,7 +37,7 @@ from wiswarm_zenoh.transport.links import FollowerLink
 from wiswarm_zenoh.transport.membership import FORGET_AFTER, Membership
 from wiswarm_zenoh.transport.outlets import Outlets
 from wiswarm_zenoh.transport.stats_rounds import STATS_PERIOD, StatsRounds
-from wiswarm_zenoh.transport.steady_gets import SteadyGets
+from wiswarm_zenoh.transport.steady_gets import SteadyGet, SteadyGets
 from wiswarm_zenoh.transport.telemetry import LeaderSummary
 from wiswarm_zenoh.transport.weight_settings import WeightPresets, WeightSettings
 
@@ -117,7 +117,8 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                                     on_delivery, clock, lambda f: not self._stop.is_set() and
                                     f in self._membership.followers)
             closing.callback(self._outlets.close)
-            self._steady = self._outlets.steady = SteadyGets(self._leader, self._reply, self._end)
+            self._steady = self._outlets.steady = SteadyGets(self._leader, self._answer,
+                                                             self._reply, self._end)
             self.bridge = self._outlets.bridge = \
                 None if bridge is None else bridge.open(session, swarm, self)
             if self.bridge is not None:
@@ -226,6 +227,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
 
     def _run(self) -> None:
         leader, lock, inbox = self._leader, self._lock, self._inbox
+        steady: SteadyGet | None = None  # a steady poll's get, to wait on
         lock.acquire()
         try:
             while not self._stopping:
@@ -234,9 +236,9 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                     if self._role.changed:
                         self._role.take(self._clock())
                 now = self._clock()
-                steady = None
                 while self._role.active and (request := leader.next_poll(now)) is not None:
-                    steady = self._outlets.send(request)  # one, or up to ``in_flight``
+                    if (get := self._outlets.send(request)) is not None:  # (or ``in_flight``)
+                        steady = get
                 self._hand_on()
                 now, deliveries = self._clock(), self._outlets.deliveries
                 if now >= self._stats.due:  # while the poll just sent is on its way
@@ -246,7 +248,7 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
                 if now >= self._steady.sweep_at:
                     self._steady.sweep(now)
                 if steady is not None:  # the other poll thread keeps inbox and timer
-                    self._steady.wait(steady, lock)
+                    steady = self._steady.wait(steady, lock)  # the next, if sent on its answer
                     continue
                 timer = leader.get_timer()
                 wake_at = math.inf if timer is None else timer
@@ -287,6 +289,19 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
     def _hand_on(self) -> None:  # the core's events
         while (event := self._leader.next_event()) is not None:
             self._outlets.hand_on(event)
+
+    def _answer(self, link: FollowerLink, reply: zenoh.Reply) -> SteadyGet | None:
+        """A steady poll's reply: the next poll first, where the reply alone decides it
+        (``Leader.poll_on_answer``), then the judging; that poll's get, if steady."""
+        data = link.payload(reply, self._max_reply, self.bad_input)
+        if data is None:
+            return None
+        leader, now, following = self._leader, self._clock(), None
+        if self._role.active and not self._stopping \
+                and (request := leader.poll_on_answer(link.follower, data, now)) is not None:
+            following = self._outlets.send(request)
+        leader.receive_reply(link.follower, data, now)
+        return following
 
     def _reply(self, link: FollowerLink, reply: zenoh.Reply) -> None:
         data = link.payload(reply, self._max_reply, self.bad_input)

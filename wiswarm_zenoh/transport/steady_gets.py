@@ -31,6 +31,8 @@ SWEEP_PERIOD = 0.02  # seconds between looks at gets that stayed open after thei
 
 ReplyTaker = Callable[[FollowerLink, zenoh.Reply], None]
 EndTaker = Callable[[FollowerLink, int], None]
+# A steady get's reply taken; the next poll's get, if that went out on it first
+AnswerTaker = Callable[[FollowerLink, zenoh.Reply], "SteadyGet | None"]
 
 
 @dataclass(slots=True)
@@ -46,9 +48,10 @@ class SteadyGets:
     """Sends steady polls and waits for their answers (under the core's lock, which it
     lets go while it waits)."""
 
-    def __init__(self, leader: Leader, take_reply: ReplyTaker, take_end: EndTaker) -> None:
+    def __init__(self, leader: Leader, take_answer: AnswerTaker, take_reply: ReplyTaker,
+                 take_end: EndTaker) -> None:
         self._leader = leader
-        self._take_reply, self._take_end = take_reply, take_end
+        self._take_answer, self._take_reply, self._take_end = take_answer, take_reply, take_end
         self.busy = False  # a poll thread waits on a steady get (one at a time)
         self.closed = False  # no more steady gets (the leader is closing)
         self._token: zenoh.CancellationToken | None = None  # that get's, for ``close``
@@ -60,11 +63,13 @@ class SteadyGets:
         self._token, self.busy = token, True
         return SteadyGet(link, request.poll_seq, link.poll_steady(request.payload, token))
 
-    def wait(self, get: SteadyGet, lock: threading.Lock) -> None:
+    def wait(self, get: SteadyGet, lock: threading.Lock) -> SteadyGet | None:
         """Until the poll is answered (its get then lingers), or its get ends; ``lock``
-        (held) is let go while ``recv`` waits."""
+        (held) is let go while ``recv`` waits. The next poll's get, if it went out on
+        the answer before the answer was judged (``take_answer``): to wait on next."""
         link, recv, leader = get.link, get.replies.recv, self._leader
         follower, poll_seq = link.follower, get.poll_seq
+        following = None
         try:
             while True:
                 lock.release()
@@ -76,13 +81,16 @@ class SteadyGets:
                     lock.acquire()
                 if reply is None:
                     self._take_end(link, poll_seq)
-                    return
-                self._take_reply(link, reply)
-                if not leader.awaits(follower, poll_seq):  # answered, or timed out before
-                    self._lingering.append((link, get.replies))
-                    return
+                    return None
+                self.busy = False  # a poll sent on this answer may take the steady path
+                following = self._take_answer(link, reply)
+                if following is not None or not leader.awaits(follower, poll_seq):
+                    self._lingering.append((link, get.replies))  # (answered, timed out)
+                    return following
+                self.busy = True
         finally:
-            self.busy, self._token = False, None
+            if following is None:  # (else busy with the following get, and its token)
+                self.busy, self._token = False, None
 
     def sweep(self, now: float) -> None:
         """What came since on the gets answered before (usually: only their end); due
