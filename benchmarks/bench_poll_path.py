@@ -13,8 +13,9 @@ leader's), and (b) the ``LeaderNode``.
 - **round trip**: from the ``get`` call's return to the reply in the poller's hands
   (the wire, the follower's answer, the wake-up of the waiting thread);
 - **reply to next get**: from the reply in hand to the next ``get`` call (the bare
-  loop only takes the sample; the leader judges the reply in its core, hands on its
-  events, and picks and encodes the next poll; ``of it, the core's receive_reply``).
+  loop only takes the sample; the leader reads the reply's header, weighs the pick it
+  made ahead and encodes the next poll, ``Leader.poll_on_answer``, and judges the reply
+  after that get: ``the core's receive_reply``, off this step where the header decided).
 
 The leader's steps are timed by wrapping its functions (two clock reads each, about a
 microsecond in all), so its rate here is a little under ``bench_poll``'s. Last, (c)
@@ -95,21 +96,26 @@ def leader_steps(session: zenoh.Session, n: int, seconds: float) -> Steps:
             return result
         return wrapper
 
-    reply, get = leader_node.LeaderNode._reply, links.FollowerLink.poll_steady
-    leader_node.LeaderNode._reply = timed("reply", reply)  # type: ignore[method-assign]
+    answer, get = leader_node.LeaderNode._answer, links.FollowerLink.poll_steady
+    judge = Leader.receive_reply
+    leader_node.LeaderNode._answer = timed("reply", answer)  # type: ignore[method-assign]
     links.FollowerLink.poll_steady = timed("get", get)  # type: ignore[method-assign]
+    Leader.receive_reply = timed("judge", judge)  # type: ignore[method-assign]
     try:
         leader_round(session, n, seconds, LeaderConfig(control_period=0.1))
     finally:
-        leader_node.LeaderNode._reply = reply  # type: ignore[method-assign]
+        leader_node.LeaderNode._answer = answer  # type: ignore[method-assign]
         links.FollowerLink.poll_steady = get  # type: ignore[method-assign]
+        Leader.receive_reply = judge  # type: ignore[method-assign]
     steps: Steps = {"get call": [], "round trip": [], "reply to next get": [],
-                    "of it, the core's receive_reply": []}
+                    "the core's receive_reply (after that get)": []}
     last_get: tuple[float, float] | None = None
     last_reply: tuple[float, float] | None = None
+    marks.sort(key=lambda mark: mark[1])  # (the next get is made inside the reply's call)
     for kind, start, end in marks[len(marks) // 4:]:  # steady state: the first quarter out
-        if kind == "reply":
-            steps["of it, the core's receive_reply"].append(end - start)
+        if kind == "judge":
+            steps["the core's receive_reply (after that get)"].append(end - start)
+        elif kind == "reply":
             if last_get is not None:
                 steps["round trip"].append(start - last_get[1])
                 steps["get call"].append(last_get[1] - last_get[0])
@@ -123,40 +129,48 @@ def leader_steps(session: zenoh.Session, n: int, seconds: float) -> Steps:
 
 def core_alone(n: int, frame_bytes: int, polls: int = 20_000) -> Steps:
     """The core's own share, with no Zenoh and no other thread: a ``Leader`` and ``n``
-    ``Follower`` cores exchanging polls by hand, 250 us apart on the clock given them."""
+    ``Follower`` cores exchanging polls by hand, 250 us apart on the clock given them,
+    as the live leader does: the next poll on the answer where it decides it, else by
+    ``next_poll`` after the judging."""
     leader = Leader(LeaderConfig(control_period=0.1), None, 1)
     followers = {f"uav{i}": Follower(f"uav{i}") for i in range(n)}
     now, frame, clock = 1000.0, b"\x42" * frame_bytes, time.perf_counter
     for follower in followers:
         leader.add_follower(follower, now)
-    steps: Steps = {"next_poll": [], "receive_reply": []}
+    steps: Steps = {"next_poll": [], "poll_on_answer": [], "receive_reply": []}
+    request = leader.next_poll(now)
     for k in range(polls):
-        start = clock()
-        request = leader.next_poll(now)
-        picked = clock()
-        if request is None:  # (a poll held for a source: not in steady state here)
-            now += 0.001
-            continue
+        assert request is not None  # (no source paced here: a poll is always due)
         core = followers[request.follower]
         core.offer(frame, now + 50e-6)
         raw = core.on_poll(request.payload, now + 100e-6, now + 100e-6)
         now += 250e-6
         leader.next_poll(now)  # none while one is out: the pick for after it, as live
         received = clock()
+        following = leader.poll_on_answer(request.follower, raw, now)
+        answered = clock()
         leader.receive_reply(request.follower, raw, now)
         done = clock()
+        if following is None:
+            following = leader.next_poll(now)
+            if k >= polls // 5:
+                steps["next_poll"].append(clock() - done)
+        elif k >= polls // 5:
+            steps["poll_on_answer"].append(answered - received)
         while leader.next_event() is not None:
             pass
         if k >= polls // 5:
-            steps["next_poll"].append(picked - start)
-            steps["receive_reply"].append(done - received)
+            steps["receive_reply"].append(done - answered)
+        request = following
     return steps
 
 
 def report(name: str, steps: Steps) -> None:
-    polls = len(next(iter(steps.values())))
+    polls = max(len(durations) for durations in steps.values())
     print(f"  {name} ({polls} polls timed)")
     for step, durations in steps.items():
+        if not durations:
+            continue
         print(f"    {step:34s} median {statistics.median(durations) * 1e6:7.1f} us"
               f"   mean {statistics.mean(durations) * 1e6:7.1f} us")
 

@@ -30,7 +30,7 @@ def test_the_next_poll_goes_out_before_the_reply_is_judged_and_nothing_is_lost()
     leader.receive_reply("uav0", raw, 0.012)
     assert leader.in_flight == following.follower and leader.next_poll(0.012) is None
     assert _delivered(drain(leader)) == [("uav0", FRAME, 0.005)]
-    assert (leader.early.polls, leader.fast_polls) == (1, 1)
+    assert (leader.early_polls, leader.fast_polls) == (1, 1)
     stats = leader.stats("uav0", 0.012)
     assert (stats.deliveries, stats.polls, stats.timeouts) == (1, 1, 0)
 
@@ -46,7 +46,7 @@ def test_no_early_poll_for_what_only_judging_can_tell() -> None:
     request = poll(leader, 0.01)
     assert leader.next_poll(0.01) is None
     assert leader.poll_on_answer("uav0", _answer(followers, request), 0.012) is None
-    assert leader.early.polls == 0
+    assert leader.early_polls == 0
 
 
 def test_no_early_poll_without_a_pick_or_with_several_polls_out() -> None:

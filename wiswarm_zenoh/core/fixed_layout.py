@@ -101,11 +101,15 @@ def unpack_poll(data: bytes) -> Poll | None:
 _REPLY_HEAD = b"\x87" + _key("v") + bytes([VERSION]) + _key("t") + _key("reply") + _key("from")
 _AFTER_ID = (_key("poll") + UINT64, "Q", _key("rt") + FLOAT64, "d", _key("st") + FLOAT64, "d")
 _NOTHING, _NOTHING_CONSTANTS = _layout(*_AFTER_ID, _key("frag") + NIL)
-_FRAGMENT, _FRAGMENT_CONSTANTS = _layout(
+_FRAGMENT_PARTS = (
     *_AFTER_ID, _key("frag") + b"\x87" + _key("u") + UINT64, "Q", _key("g") + FLOAT64, "d",
     _key("i") + UINT32, "I", _key("n") + UINT32, "I", _key("size") + UINT64, "Q",
     _key("crc") + UINT32, "I", _key("data") + BIN32, "I",
 )
+_FRAGMENT, _FRAGMENT_CONSTANTS = _layout(*_FRAGMENT_PARTS)
+# Its values only, the constants skipped unread (``peek_update``)
+_FRAGMENT_VALUES = struct.Struct(">" + "".join(
+    f"{len(part)}x" if isinstance(part, bytes) else part for part in _FRAGMENT_PARTS))
 
 
 def reply_prefix(follower: str) -> bytes:
@@ -127,6 +131,23 @@ def pack_reply(prefix: bytes, poll_seq: int, received_at: float, sent_at: float,
         c[8], frag.checksum, c[9], len(data),
     )
     return b"".join((prefix, head, data))
+
+
+def peek_update(data: bytes, follower: str) -> tuple[int, float, int] | None:
+    """Of a reply from ``follower`` in this layout with a fragment: the poll it answers,
+    its update's generation time (the follower's clock) and its count of fragments, read
+    with nothing else checked (a guess until ``unpack_reply`` judges it: read where
+    the next poll waits on it); None for any other reply."""
+    expected = _expected.get(follower)
+    if expected is None:
+        expected = expect(follower)
+        if expected is None:
+            return None
+    prefix = expected[1]
+    if len(data) < len(prefix) + _FRAGMENT.size or not data.startswith(prefix):
+        return None
+    values = _FRAGMENT_VALUES.unpack_from(data, len(prefix))
+    return values[0], values[4], values[6]
 
 
 def _sender(data: bytes) -> tuple[str, int] | None:

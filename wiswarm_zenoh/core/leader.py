@@ -9,7 +9,7 @@ from collections.abc import Mapping, Sequence
 
 from wiswarm_zenoh.core.config import LeaderConfig
 from wiswarm_zenoh.core.control_schedule import ControlSchedule
-from wiswarm_zenoh.core.early_answers import EarlyAnswers
+from wiswarm_zenoh.core.early_answers import answer_decides
 from wiswarm_zenoh.core.errors import WireError
 from wiswarm_zenoh.core.events import Event, Rejected, Stale, drain
 from wiswarm_zenoh.core.in_flight import InFlightTuner
@@ -22,7 +22,7 @@ from wiswarm_zenoh.core.poll_hold import PollHold
 from wiswarm_zenoh.core.poll_records import Flight, Pick, PollRequest
 from wiswarm_zenoh.core.scheduling import choose, pick_after, still_holds
 from wiswarm_zenoh.core.site_links import SiteLinks
-from wiswarm_zenoh.core.wire import Poll, encode_poll, validate_waypoints
+from wiswarm_zenoh.core.wire import Poll, decode_reply, encode_poll, validate_waypoints
 
 __all__ = ["FollowerStats", "Leader", "PollRequest", "drain"]
 
@@ -49,7 +49,7 @@ class Leader:
     reply comes as expected and nothing else moved, the next ``next_poll`` weighs only
     the polled follower's new index against that pick (``scheduling.still_holds``,
     ``fast_polls``) instead of a pass over every follower; where the reply alone
-    decides that, before the reply is judged (``poll_on_answer``, ``early``).
+    decides that, before the reply is judged (``poll_on_answer``, ``early_polls``).
     """
 
     def __init__(self, config: LeaderConfig | None = None, rng: random.Random | None = None,
@@ -66,7 +66,7 @@ class Leader:
         self.unknown_replies = 0
         self.polls = 0
         self.fast_polls = 0  # polls sent on a pick made while the poll before was out
-        self.early = EarlyAnswers()  # of them, those sent before its reply was judged
+        self.early_polls = 0  # of them, those sent before that reply was judged
         self.slot = 0.01  # mean poll duration in seconds, refined as polls complete
         self._poll_seq = 0
         self._control = ControlSchedule(self.config.control_period)
@@ -202,7 +202,7 @@ class Leader:
                 self._events.append(Stale(follower, "reply from a follower that is not a member"))
             return
         try:
-            reply = self.early.reply(data, follower)
+            reply = decode_reply(data, follower)
         except WireError as exc:
             self._reject(peer, follower, str(exc))
             return
@@ -236,14 +236,14 @@ class Leader:
         the reply alone decides it (``early_answers``): one poll out, sources taken as
         always fresh, not a site's follower. None: judge first, then ``next_poll``."""
         pick, flight, table = self._pick, self._flights.get(follower), self.table
-        if pick is None or flight is None or len(self._flights) != 1 \
-                or flight.request.poll_seq != pick.poll_seq or self.tuner is not None \
+        if pick is None or flight is None or len(self._flights) != 1 or self.tuner is not None \
                 or self._fixed_in_flight != 1 or table.unfresh or table.known_intervals \
-                or follower in self.site_links.link_of \
-                or not self.early.decides(pick, flight, table, data, now):
+                or follower in self.site_links.link_of or flight.request.poll_seq != \
+                pick.poll_seq or not answer_decides(pick, flight, table, data, now):
             return None
         self._pick = None
         self.fast_polls += 1
+        self.early_polls += 1
         return self._start_poll(pick.choice, now, True)
 
     def handle_timer(self, now: float) -> None:
