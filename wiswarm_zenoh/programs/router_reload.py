@@ -28,7 +28,7 @@ from pathlib import Path
 
 import zenoh
 
-from wiswarm_zenoh.security.checks import tls_files
+from wiswarm_zenoh.transport.tls_files import tls_files
 from wiswarm_zenoh.transport.zenoh_config import SessionSpec
 from wiswarm_zenoh.usage import UsageError
 

@@ -25,8 +25,8 @@ from dataclasses import dataclass
 
 import zenoh
 
-from wiswarm_zenoh.security.checks import check_tls
 from wiswarm_zenoh.transport import shm_sweep
+from wiswarm_zenoh.transport.tls_files import check_tls
 from wiswarm_zenoh.usage import UsageError
 
 MODES = ("peer", "client", "router")
