@@ -14,7 +14,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from wiswarm_zenoh.core import Follower, Leader, LeaderConfig, drain
-from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots
+from wiswarm_zenoh.core.ages import (
+    ages_in_slots,
+    array_ages_in_slots,
+    array_fresh_ages_in_slots,
+    fresh_ages_in_slots,
+)
 from wiswarm_zenoh.core.policies import Whittle
 from wiswarm_zenoh.core.sources import (
     HOLD_SHARE,
@@ -289,3 +294,14 @@ def test_the_numpy_ages_are_the_plain_ones(
     arrays = array_ages_in_slots(*(np.array(c) for c in (taus, dues, intervals, readies)),
                                  now, slot)
     assert list(arrays) == pytest.approx(plain)
+
+
+@settings(max_examples=100, derandomize=True, deadline=None)
+@given(st.lists(times, min_size=1, max_size=12))
+def test_the_fresh_shortcuts_are_the_general_ages(taus: list[float]) -> None:
+    """Every source taken as always fresh (due -inf, interval 0): the shortcuts the
+    scheduler takes then give the general formula's ages, plain and numpy."""
+    now, slot, n = 0.2, 0.01, len(taus)
+    general = ages_in_slots(taus, [-math.inf] * n, [0.0] * n, taus, now, slot)
+    assert fresh_ages_in_slots(taus, now, slot) == pytest.approx(general)
+    assert list(array_fresh_ages_in_slots(np.array(taus), now, slot)) == pytest.approx(general)

@@ -43,6 +43,15 @@ def ages_in_slots(taus: Sequence[float], dues: Sequence[float], intervals: Seque
     return ages
 
 
+def array_fresh_ages_in_slots(taus: FloatArray, now: float, slot: float) -> FloatArray:
+    """``array_ages_in_slots`` where every source is taken as always fresh (three numpy
+    passes instead of seven: a thousand followers' pick runs on every poll)."""
+    ages = now - taus
+    np.maximum(ages, 0.0, out=ages)
+    ages /= slot
+    return ages
+
+
 def array_ages_in_slots(taus: FloatArray, dues: FloatArray, intervals: FloatArray,
                         readies: FloatArray, now: float, slot: float) -> FloatArray:
     """``ages_in_slots`` for many followers, in one numpy pass (a new array)."""

@@ -7,9 +7,14 @@ from collections.abc import Collection, Sequence
 
 import numpy as np
 
-from wiswarm_zenoh.core.ages import ages_in_slots, array_ages_in_slots, fresh_ages_in_slots
+from wiswarm_zenoh.core.ages import (
+    ages_in_slots,
+    array_ages_in_slots,
+    array_fresh_ages_in_slots,
+    fresh_ages_in_slots,
+)
 from wiswarm_zenoh.core.peers import IntArray, PeerTable
-from wiswarm_zenoh.core.policies import IndexPolicy, Policy
+from wiswarm_zenoh.core.policies import FloatArray, IndexPolicy, Policy
 from wiswarm_zenoh.core.poll_records import Pick
 
 
@@ -66,8 +71,8 @@ def pick(table: PeerTable, policy: Policy, slot: float, now: float,
     if live is not None:
         wa, pa, taua, duea, intervala, readya = (
             a[live] for a in (wa, pa, taua, duea, intervala, readya))
-    return policy.choose(wa, pa, array_ages_in_slots(taua, duea, intervala, readya, now,
-                                                     slot))
+    return policy.choose(wa, pa, _array_ages(table, taua, duea, intervala, readya, now,
+                                             slot))
 
 
 def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int,
@@ -86,8 +91,8 @@ def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int
         choice = values.index(best)  # the first of equals, as ``choose`` takes it
     else:
         wa, pa, taua, duea, intervala, readya = table.arrays()
-        indices = policy.index(wa, pa, array_ages_in_slots(taua, duea, intervala, readya,
-                                                           at, slot))
+        indices = policy.index(wa, pa, _array_ages(table, taua, duea, intervala, readya, at,
+                                                   slot))
         indices[polled] = -np.inf
         choice = int(indices.argmax())
         best = float(indices[choice])
@@ -119,6 +124,16 @@ def holds_on_answer(pick: Pick, table: PeerTable, tau: float, p: float, now: flo
     age = pick.at - max(table.tau[i], tau)
     value = pick.policy.indices([table.w[i]], [p], [age / pick.slot if age > 0.0 else 0.0])[0]
     return value < pick.value or (value == pick.value and i > pick.choice)
+
+
+def _array_ages(table: PeerTable, taus: FloatArray, dues: FloatArray,
+                intervals: FloatArray, readies: FloatArray, at: float,
+                slot: float) -> FloatArray:
+    """Ages in slots at ``at`` of the rows given (numpy), from the taus alone when every
+    source is taken as always fresh."""
+    if not (table.unfresh or table.known_intervals):
+        return array_fresh_ages_in_slots(taus, at, slot)
+    return array_ages_in_slots(taus, dues, intervals, readies, at, slot)
 
 
 def _ages(table: PeerTable, at: float, slot: float) -> list[float]:
