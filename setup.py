@@ -1,9 +1,9 @@
 """Opt-in compiled core: with ``WISWARM_MYPYC=1`` the sans-I/O core (``wiswarm_zenoh/core``,
 but its package file and ``policies``, whose array-or-float generics mypyc refuses) and
 the transport modules every poll runs through (``POLL_PATH``) are compiled by mypyc:
-the core about twice as fast, the leader's polls/s 0.68 -> 0.70 (core) -> 0.72 (both)
-of the bare get loop's (``docs/measurements.md``); without it (the default) the package
-is pure Python. Everything else is in ``pyproject.toml``.
+the core two to three times as fast alone, but the leader's polls/s no faster since the
+reply is judged after the next poll went (``docs/measurements.md``); without it (the
+default) the package is pure Python. Everything else is in ``pyproject.toml``.
 
     WISWARM_MYPYC=1 python setup.py build_ext --inplace   # ``make compiled``
 """
