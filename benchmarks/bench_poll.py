@@ -180,11 +180,11 @@ def watched_round(session: zenoh.Session, watcher: SessionSpec, n: int, seconds:
 
 def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderConfig,
                  cost: MachineCost | None = None, **node: Any
-                 ) -> tuple[float, list[dict[str, Any]], float]:
+                 ) -> tuple[float, list[dict[str, Any]], tuple[float, float]]:
     """(b): polls/s of the LeaderNode (made with ``node``'s further arguments), its
-    per-follower stats at the end, and the share of its polls sent on a pick made while
-    the poll before was out (``fast_polls``); what its window cost the machine, into
-    ``cost``."""
+    per-follower stats at the end, and the shares of its polls sent on a pick made while
+    the poll before was out (``fast_polls``) and, of all, before the reply before was
+    judged (``early_polls``); what its window cost the machine, into ``cost``."""
     joined: list[str] = []
     everyone = threading.Event()
 
@@ -201,15 +201,17 @@ def leader_round(session: zenoh.Session, n: int, seconds: float, config: LeaderC
             time.sleep(0.001)
         if cost is not None:
             cost.begin()
-        start, polls0, fast0 = time.perf_counter(), leader.polls, leader.fast_polls
+        start, polls0 = time.perf_counter(), leader.polls
+        fast0, early0 = leader.fast_polls, leader.early_polls
         time.sleep(seconds)
-        polls, fast = leader.polls - polls0, leader.fast_polls - fast0
+        polls = leader.polls - polls0
+        fast, early = leader.fast_polls - fast0, leader.early_polls - early0
         rate = polls / (time.perf_counter() - start)
         if cost is not None:  # after the clock: reading /proc takes milliseconds
             cost.end(polls)
         time.sleep(STATS_PERIOD * 1.5)  # so that the last stats cover the whole round
         stats = [record.as_dict() for record in leader.latest]
-    return rate, stats, fast / max(polls, 1)
+    return rate, stats, (fast / max(polls, 1), early / max(polls, 1))
 
 
 Job = tuple[Any, tuple[Any, ...]]
@@ -265,14 +267,15 @@ def measure(n: int, args: argparse.Namespace) -> None:
                         bare.append(bare_round(session, followers, args.seconds, args.timeout,
                                                costs["bare"]))
                     elif kind == "leader":
-                        rate, stats, fast = leader_round(session, n, args.seconds, config,
-                                                         costs["leader"])
+                        rate, stats, shares = leader_round(session, n, args.seconds, config,
+                                                           costs["leader"])
                         leader.append(rate)
-                        fast_shares.append(fast)
+                        fast_shares.append(shares)
                     else:
                         watched.append(watched_round(session, node_spec, n, args.seconds,
                                                      config))
-        report(n, args, bare, leader, stats, statistics.median(fast_shares))
+        report(n, args, bare, leader, stats, statistics.median(s[0] for s in fast_shares),
+               statistics.median(s[1] for s in fast_shares))
         print("\n".join([*costs["bare"].lines("(a) bare get loop"),
                          *costs["leader"].lines("(b) leader loop")]))
         if watched:

@@ -108,6 +108,7 @@ class Window:
     timeouts: int  # polls that went unanswered, from the leader's stats (a round apart)
     pauses: Pauses
     fast: int  # polls sent on the pick made while the poll before was out
+    early: int  # of them, before the reply before was judged
 
 
 def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace,
@@ -140,14 +141,16 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
             rss_joined = rss_bytes() - rss0
             time.sleep(args.warmup)
             timeouts0 = timeouts(node, session)  # before the window: the records cost CPU
-            t0, polls0, fast0 = time.time(), node.polls, node.fast_polls
+            t0, polls0, fast0, early0 = time.time(), node.polls, node.fast_polls, \
+                node.early_polls
             cpu0, thread0 = process_cpu(), thread_cpu(poll_threads)
             machine0 = machine_busy()
             pauses = Pauses()
             cost.begin()
             time.sleep(seconds)
             pauses.close()
-            t1, polls1, fast1 = time.time(), node.polls, node.fast_polls
+            t1, polls1, fast1, early1 = time.time(), node.polls, node.fast_polls, \
+                node.early_polls
             cost.end(polls1 - polls0)
             cpu1, thread1 = process_cpu(), thread_cpu(poll_threads)
             machine1 = machine_busy()
@@ -159,7 +162,7 @@ def leader_run(spec: SessionSpec, followers: list[str], args: argparse.Namespace
     return joined, polled, rss_joined, rss_end, Window(
         t1 - t0, polls1 - polls0, cpu1 - cpu0, machine1 - machine0, thread1 - thread0,
         counts, means,
-        timeouts1 - timeouts0, pauses, fast1 - fast0)
+        timeouts1 - timeouts0, pauses, fast1 - fast0, early1 - early0)
 
 
 def reask_cost(node: LeaderNode, pairs: int, seconds: float) -> None:
@@ -283,7 +286,8 @@ def report(n: int, args: argparse.Namespace, up: float, joined: float, polled: f
                                 f"   (bare get loop: {bare[0]:.0f} polls/s, S = "
                                 f"{1e3 / bare[0]:.3f} ms; leader/bare {rate / bare[0]:.2f})"))
     print(f"  sent on the pick made while the poll before was out   "
-          f"{window.fast / max(window.polls, 1):6.1%}")
+          f"{window.fast / max(window.polls, 1):6.1%}   (before it was judged "
+          f"{window.early / max(window.polls, 1):.1%})")
     gcs = window.pauses
     print(f"  polls unanswered (timed out)                  {window.timeouts:8d}       "
           f"leader's GC pauses: " + ", ".join(

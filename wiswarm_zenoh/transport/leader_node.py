@@ -178,6 +178,11 @@ class LeaderNode(AbstractContextManager["LeaderNode"]):
         """Polls sent on the pick made while the poll before was out (``Leader``)."""
         return self._leader.fast_polls
 
+    @property
+    def early_polls(self) -> int:
+        """Of them, those sent before the reply they follow was judged."""
+        return self._leader.early_polls
+
     def set_control(self, follower: str, waypoints: Sequence[Sequence[float]]) -> None:
         """New control for one follower, broadcast with the next poll (ValueError at once
         for waypoints no follower may be sent, or a follower not polled)."""
