@@ -5,6 +5,10 @@ nothing, and a pick it undoes is counted."""
 from __future__ import annotations
 
 import dataclasses
+import math
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from wiswarm_zenoh.core import (
     Delivered,
@@ -15,6 +19,8 @@ from wiswarm_zenoh.core import (
     Rejected,
     drain,
 )
+from wiswarm_zenoh.core.policies import IndexPolicy
+from wiswarm_zenoh.core.scheduling import holds_on_answer, pick_after
 from wiswarm_zenoh.core.wire import decode_reply, encode_reply
 
 from .drive import poll
@@ -99,3 +105,27 @@ def test_a_reply_refused_when_judged_leaves_its_poll_out_beside_the_early_one() 
     assert [e.follower for e in drain(leader) if isinstance(e, Delivered)] == [
         "uav0", following.follower]
     assert poll(leader, 0.014) is not None
+
+
+@settings(max_examples=200, deadline=None)
+@given(start=st.one_of(st.just(0.0), st.floats(1.6e9, 1.8e9)),
+       weights=st.lists(st.floats(0.1, 10.0), min_size=3, max_size=3), ulps=st.integers(0, 4))
+def test_a_reply_fresh_by_the_picks_bound_is_one_the_exact_check_passes(
+        start: float, weights: list[float], ulps: int) -> None:
+    """``Pick.holds_from`` (made with the pick, so that the reply's check computes no
+    index) never says "holds" where the index says otherwise, at any clock's scale."""
+    leader = Leader()
+    for i, weight in enumerate(weights):
+        leader.add_follower(f"uav{i}", start)
+        leader.set_weight(f"uav{i}", weight)
+    request = poll(leader, start + 0.01)
+    assert isinstance(leader.policy, IndexPolicy)
+    pick = pick_after(leader.table, leader.policy, leader.slot, request.poll_seq,
+                      leader.table.index(request.follower), request.sent_at + leader.slot)
+    assert pick is not None and math.isfinite(pick.holds_from)
+    peer = leader.table.peers[request.follower]
+    tau = pick.holds_from
+    for _ in range(ulps):
+        tau = math.nextafter(tau, math.inf)
+    now = pick.at
+    assert holds_on_answer(pick, leader.table, tau, peer.reliability.after(True), now)

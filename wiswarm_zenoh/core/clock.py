@@ -91,3 +91,6 @@ class ClockOffsetEstimator:
 
     def to_leader(self, follower_time: float) -> float:
         return follower_time - self.offset
+
+    def from_leader(self, leader_time: float) -> float:
+        return leader_time + self.offset

@@ -10,6 +10,7 @@ the injected generator.
 
 from __future__ import annotations
 
+import math
 import random
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Sequence
@@ -60,6 +61,12 @@ class IndexPolicy(ABC):
         values = self.indices(w, p, h)
         return values.index(max(values))  # the first of equals, as np.argmax
 
+    def age_below(self, value: float, w: float, p: float) -> float | None:
+        """An age (in slots) up to which a follower of ``w`` and ``p`` surely has an index
+        below ``value`` (a little under the exact bound: rounding cannot cross it), or
+        None where this policy cannot say without computing the index."""
+        return None
+
 
 @dataclass(frozen=True)
 class AgeCost:
@@ -103,6 +110,13 @@ class Whittle(IndexPolicy):
             return super().indices(w, p, h)
         # The paper's index in one comprehension: no call per follower on every poll.
         return [wi * pi * hi * hi for wi, pi, hi in zip(w, p, h, strict=True)]
+
+    def age_below(self, value: float, w: float, p: float) -> float | None:
+        if self.cost is not LINEAR_COST or not value > 0.0:
+            return None
+        if not w * p > 0.0:
+            return math.inf  # an index of 0 at any age
+        return math.sqrt(value / (w * p)) * (1.0 - 1e-9)  # w p h^2 < value
 
 
 class WhittleExact(IndexPolicy):

@@ -3,6 +3,7 @@ record of it while it is out, and the pick made for after it."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from wiswarm_zenoh.core.peer import Peer
@@ -72,7 +73,9 @@ class Pick:
     """Whom to poll after the poll ``poll_seq`` of the follower at ``polled`` (in flight
     when picked) if its reply comes as usual: the follower at ``choice`` in the table,
     whose index under ``policy`` at ``at`` (the reply's expected time, in slots of
-    ``slot``) is ``value``."""
+    ``slot``) is ``value``. It surely holds if the reply answers with an update generated
+    at ``fresh_from`` or later on the follower's clock, ``holds_from`` on the leader's
+    (+inf: not known ahead)."""
 
     poll_seq: int
     polled: int
@@ -81,3 +84,5 @@ class Pick:
     choice: int
     value: float
     policy: IndexPolicy
+    holds_from: float = math.inf
+    fresh_from: float = math.inf

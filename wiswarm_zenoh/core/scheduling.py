@@ -96,8 +96,18 @@ def pick_after(table: PeerTable, policy: IndexPolicy, slot: float, poll_seq: int
         indices[polled] = -np.inf
         choice = int(indices.argmax())
         best = float(indices[choice])
-    table.watch(table.ids[polled])
-    return Pick(poll_seq, polled, at, slot, choice, best, policy)
+    follower = table.ids[polled]
+    table.watch(follower)
+    peer = table.peers[follower]
+    age = None if table.unfresh or table.known_intervals else \
+        policy.age_below(best, table.w[polled], peer.reliability.after(True))
+    if age is None:
+        return Pick(poll_seq, polled, at, slot, choice, best, policy)
+    # (+1 us: times of 1.7e9 s round to 0.24 us; its clock's offset is as it is until
+    # this very reply is judged)
+    holds_from = at - age * slot + 1e-6
+    return Pick(poll_seq, polled, at, slot, choice, best, policy, holds_from,
+                peer.clock.from_leader(holds_from))
 
 
 def still_holds(pick: Pick, table: PeerTable, now: float) -> bool:
