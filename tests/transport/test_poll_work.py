@@ -27,8 +27,8 @@ SWARM = "work"
 FOLLOWERS = 4
 WARM_UP = 200  # deliveries before counting: routes, queriers and estimates settled
 COUNTED = 1000  # deliveries counted
-PYTHON_CALLS_CEILING = 90  # per poll; measured: 85 (pure Python core, 4 followers)
-C_CALLS_CEILING = 100  # per poll; measured: 88 to 94 (with two busy loops beside)
+PYTHON_CALLS_CEILING = 90  # per poll; measured: 83 (pure Python core, 4 followers)
+C_CALLS_CEILING = 100  # per poll; measured: 88 to 94
 
 
 class PollThreadCalls:
