@@ -27,8 +27,9 @@ def answer_decides(pick: Pick, flight: Flight, table: PeerTable, data: object,
     after it) leaves ``pick`` to be polled next: by its header, it answers that poll with
     a whole update, and the polled follower's index as that update leaves its row does
     not beat the pick. Only the header is read: where the next poll waits on this, the
-    leader's state is cold in the caches, and reading the reply whole took twice as
-    long as the rest (the judging reads it whole, after the poll went)."""
+    leader's state is cold in the caches, and reading the reply whole took as long as
+    all the rest (the judging reads it whole, after the poll went). Near the pick's
+    bound (``Pick.holds_from``) the polled follower's new index is weighed."""
     header = peek_update(data, flight.request.follower) if type(data) is bytes else None
     if header is None:
         return False
