@@ -83,6 +83,16 @@ def _delivered(events: list[Event]) -> list[tuple[str, bytes, float]]:
     return [(e.follower, e.payload, e.generated_at) for e in events if isinstance(e, Delivered)]
 
 
+# Random swarms (followers, their weights, which of them has a frame when, made how long
+# before the poll) for the property tests of both fast paths
+SWARMS = given(
+    n=st.integers(2, 6),
+    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
+    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
+)
+RUNS = settings(max_examples=60, deadline=None)
+
+
 def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]],
                    path: Callable[..., tuple[PollRequest, list[Event]]] = _fast) -> Leader:
     """Two swarms fed the same frames: one leader takes every reply the usual way, the
@@ -115,24 +125,16 @@ def _compare_paths(n: int, weights: list[float], offers: list[tuple[int, float]]
     return fast
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    n=st.integers(2, 6),
-    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
-    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
-)
+@RUNS
+@SWARMS
 def test_the_fast_path_picks_what_the_usual_path_picks(
         n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
     # mostly fast, after two polls whose picks are made before any slot was measured
     assert _compare_paths(n, weights, offers).fast_polls >= (len(offers) - 2) // 2
 
 
-@settings(max_examples=60, deadline=None)
-@given(
-    n=st.integers(2, 6),
-    weights=st.lists(st.floats(0.1, 10.0), min_size=6, max_size=6),
-    offers=st.lists(st.tuples(st.integers(0, 5), st.floats(0.0, 0.002)), max_size=60),
-)
+@RUNS
+@SWARMS
 def test_polls_sent_before_the_reply_is_judged_are_the_usual_picks(
         n: int, weights: list[float], offers: list[tuple[int, float]]) -> None:
     early = _compare_paths(n, weights, offers, _early)

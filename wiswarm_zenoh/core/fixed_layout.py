@@ -138,11 +138,9 @@ def peek_update(data: bytes, follower: str) -> tuple[int, float, int] | None:
     its update's generation time (the follower's clock) and its count of fragments, read
     with nothing else checked (a guess until ``unpack_reply`` judges it: read where
     the next poll waits on it); None for any other reply."""
-    expected = _expected.get(follower)
+    expected = expect(follower)
     if expected is None:
-        expected = expect(follower)
-        if expected is None:
-            return None
+        return None
     prefix = expected[1]
     if len(data) < len(prefix) + _FRAGMENT.size or not data.startswith(prefix):
         return None
